@@ -1,0 +1,27 @@
+"""hybrid: event-driven simulation of hybrid (Filippov / stick-slip) systems on SUNDIALS IDA.
+
+A model is data: a :class:`HybridSystem` of named variables, parameters,
+modes (derivatives and algebraic equations as expression strings), guarded
+transitions and resets. :func:`simulate` integrates it event-driven, with the
+slave (algebraic) variables of each mode solved as a DAE by IDA.
+"""
+
+from ._expr import FUNCTIONS as FUNCTIONS
+from ._expr import ExpressionError as ExpressionError
+from ._loader import load_system as load_system
+from ._loader import system_from_dict as system_from_dict
+from ._options import SolverOptions as SolverOptions
+from ._simulate import SimulationError as SimulationError
+from ._simulate import initial_state as initial_state
+from ._simulate import simulate as simulate
+from ._system import HybridSystem as HybridSystem
+from ._system import Mode as Mode
+from ._system import ModelError as ModelError
+from ._system import Parameter as Parameter
+from ._system import Transition as Transition
+from ._system import Variable as Variable
+from ._trajectory import Status as Status
+from ._trajectory import Trajectory as Trajectory
+from ._trajectory import TransitionRecord as TransitionRecord
+
+__version__ = "0.1.0"

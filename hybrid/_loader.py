@@ -1,0 +1,181 @@
+"""Model files: a :class:`HybridSystem` written as TOML (data only, never executed).
+
+Layout of a model file::
+
+    [model]
+    name = "coulomb"
+    title = "..."                # optional
+    reference = "..."            # optional
+    period = "2*pi/Omega"        # optional forcing period
+    initial_mode = "stick"       # optional
+    quadratures = ["W", "D"]     # optional
+    outputs = ["H"]              # optional, names of definitions
+
+    [variables.x]                # one table per variable, in state order
+    unit = "m"
+    description = "..."
+
+    [parameters.m]               # domain: "real" | "positive" | "nonnegative"
+    unit = "kg"
+    domain = "positive"
+
+    [presets.standard]           # named parameter sets
+    m = 1.0
+
+    [definitions]                # named expressions shared by all modes
+    H = "k*x - F*sin(Omega*t)"
+
+    [equations]                  # derivatives shared by all modes
+    x = "v"
+
+    [modes.stick]                # per mode: derivatives, algebraic, definitions
+    derivatives = { x = "0", v = "0" }
+
+    [[transitions]]
+    source = "stick"
+    target = "slip+"
+    guard = "H + R"
+    direction = -1
+    reset = { v = "0" }          # optional
+
+    [plot]                       # optional hints for the CLI figure
+    force = "H"
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+
+from ._system import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
+
+__all__ = ["load_system", "system_from_dict"]
+
+_TOP = {
+    "model",
+    "variables",
+    "parameters",
+    "presets",
+    "definitions",
+    "equations",
+    "modes",
+    "transitions",
+    "plot",
+}
+_MODEL = {"name", "title", "reference", "period", "initial_mode", "quadratures", "outputs"}
+_VAR = {"unit", "description"}
+_PAR = {"unit", "description", "domain"}
+_MODE = {"derivatives", "algebraic", "definitions"}
+_TRANS = {"source", "target", "guard", "direction", "name", "reset"}
+
+
+def load_system(path: str | Path) -> HybridSystem:
+    """Read a model file (TOML).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    HybridSystem
+
+    Raises
+    ------
+    ModelError
+        The file is not valid TOML or the model is inconsistent; the message
+        names the file and the item.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ModelError(f"model file {str(path)!r} does not exist")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(f"model file {str(path)!r} is not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise ModelError(f"model file {str(path)!r} is not UTF-8 text") from None
+    try:
+        return system_from_dict(data)
+    except ModelError as exc:
+        raise ModelError(f"{path.name}: {exc}") from None
+
+
+def _check_keys(table: Mapping, allowed: set[str], where: str) -> None:
+    if not isinstance(table, Mapping):
+        raise ModelError(f"{where} must be a table, got {table!r}")
+    extra = set(table) - allowed
+    if extra:
+        raise ModelError(
+            f"{where}: unknown key(s) {', '.join(sorted(extra))}; allowed: {', '.join(sorted(allowed))}"
+        )
+
+
+def system_from_dict(data: Mapping) -> HybridSystem:
+    """Build a :class:`HybridSystem` from the parsed content of a model file."""
+    _check_keys(data, _TOP, "model file")
+    model = data.get("model", {})
+    _check_keys(model, _MODEL, "[model]")
+    if "name" not in model:
+        raise ModelError("[model] needs a `name`")
+    variables = []
+    for name, spec in data.get("variables", {}).items():
+        _check_keys(spec, _VAR, f"[variables.{name}]")
+        variables.append(Variable(name, str(spec.get("unit", "")), str(spec.get("description", ""))))
+    parameters = []
+    for name, spec in data.get("parameters", {}).items():
+        _check_keys(spec, _PAR, f"[parameters.{name}]")
+        parameters.append(
+            Parameter(
+                name,
+                str(spec.get("unit", "")),
+                str(spec.get("description", "")),
+                str(spec.get("domain", "real")),
+            )
+        )
+    modes = []
+    for name, spec in data.get("modes", {}).items():
+        _check_keys(spec, _MODE, f"[modes.{name}]")
+        modes.append(
+            Mode(name, spec.get("derivatives", {}), spec.get("algebraic", {}), spec.get("definitions", {}))
+        )
+    transitions = []
+    for k, spec in enumerate(data.get("transitions", [])):
+        _check_keys(spec, _TRANS, f"transition #{k + 1}")
+        missing = {"source", "target", "guard"} - set(spec)
+        if missing:
+            raise ModelError(f"transition #{k + 1} lacks {', '.join(sorted(missing))}")
+        transitions.append(
+            Transition(
+                source=spec["source"],
+                target=spec["target"],
+                guard=spec["guard"],
+                direction=spec.get("direction", 0),
+                name=spec.get("name", ""),
+                reset=spec.get("reset", {}),
+            )
+        )
+    presets = {}
+    for pname, values in data.get("presets", {}).items():
+        if not isinstance(values, Mapping):
+            raise ModelError(f"[presets.{pname}] must be a table of parameter values")
+        presets[pname] = dict(values)
+    return HybridSystem(
+        name=str(model["name"]),
+        title=str(model.get("title", "")),
+        reference=str(model.get("reference", "")),
+        variables=variables,
+        parameters=parameters,
+        modes=modes,
+        transitions=transitions,
+        equations=data.get("equations", {}),
+        definitions=data.get("definitions", {}),
+        quadratures=tuple(model.get("quadratures", ())),
+        outputs=tuple(model.get("outputs", ())),
+        period=model.get("period"),
+        initial_mode=model.get("initial_mode"),
+        presets=presets,
+        plot=data.get("plot", {}),
+    )

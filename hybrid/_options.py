@@ -1,0 +1,103 @@
+"""Solver options (frozen, validated at construction)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+__all__ = ["SolverOptions"]
+
+
+def _positive(name: str, value, *, allow_none: bool = False) -> None:
+    if value is None and allow_none:
+        return
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise ValueError(f"SolverOptions: `{name}` must be a finite number > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of :func:`hybrid.simulate`.
+
+    Attributes
+    ----------
+    rtol : float
+        Relative tolerance of IDA (1e-14 <= rtol <= 1e-2).
+    atol : float or mapping of str to float
+        Absolute tolerance, one value or per variable name (unnamed variables
+        get ``atol_default``).
+    atol_default : float
+        Absolute tolerance of variables not named in a mapping ``atol``.
+    max_step : float or None
+        Largest step [s]. ``None``: a sixteenth of the forcing period, or a
+        fiftieth of the time span if the system declares no period.
+    max_num_steps : int
+        Internal steps IDA may take per call before it reports failure.
+    zeno_count : int
+        A burst of this many transitions ...
+    zeno_window : float or None
+        ... within this time [s] stops the run as a Zeno burst. ``None``:
+        1e-6 times the forcing period (or the time span).
+    max_chain : int
+        Transitions allowed at one instant (chained switches) before the run
+        stops with "no admissible mode".
+    taylor_order : int
+        Order of the Taylor series used to decide the successor mode at a
+        switch where a guard of the new mode starts at zero.
+    guard_noise : float
+        Safety factor on the noise level of a guard, ``sum_j |dh/dy_j|
+        (atol_j + rtol |y_j|)``: within it a guard counts as zero at a
+        switch and stays disarmed until it has left it.
+    """
+
+    rtol: float = 1e-8
+    atol: float | Mapping[str, float] = 1e-10
+    atol_default: float = 1e-10
+    max_step: float | None = None
+    max_num_steps: int = 50_000
+    zeno_count: int = 20
+    zeno_window: float | None = None
+    max_chain: int = 8
+    taylor_order: int = 4
+    guard_noise: float = 10.0
+    _atol_map: Mapping[str, float] = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        _positive("rtol", self.rtol)
+        if not 1e-14 <= self.rtol <= 1e-2:
+            raise ValueError(f"SolverOptions: `rtol` must lie in [1e-14, 1e-2], got {self.rtol!r}")
+        if isinstance(self.atol, Mapping):
+            for k, v in self.atol.items():
+                _positive(f"atol[{k!r}]", v)
+            object.__setattr__(self, "_atol_map", dict(self.atol))
+        else:
+            _positive("atol", self.atol)
+        _positive("atol_default", self.atol_default)
+        _positive("max_step", self.max_step, allow_none=True)
+        _positive("zeno_window", self.zeno_window, allow_none=True)
+        _positive("guard_noise", self.guard_noise)
+        for name in ("max_num_steps", "zeno_count", "max_chain", "taylor_order"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")
+        if self.taylor_order < 2:
+            raise ValueError(
+                "SolverOptions: `taylor_order` must be >= 2 (a switch into stick needs the second order)"
+            )
+
+    def atol_vector(self, names) -> list[float]:
+        """Absolute tolerance per variable, in ``names`` order."""
+        if self._atol_map is None:
+            return [float(self.atol)] * len(names)
+        unknown = set(self._atol_map) - set(names)
+        if unknown:
+            raise ValueError(
+                f"SolverOptions: `atol` names unknown variable(s) {sorted(unknown)}; variables: {list(names)}"
+            )
+        return [float(self._atol_map.get(n, self.atol_default)) for n in names]

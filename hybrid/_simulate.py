@@ -1,0 +1,512 @@
+"""Event-driven simulation of a hybrid system: :func:`simulate`.
+
+The run is a sequence of smooth segments, each integrated by IDA in one mode.
+At a located guard crossing the transition's reset is applied, the slave
+variables of the new mode are solved from its algebraic equations, consistent
+derivatives are computed, and the new mode is checked for admissibility:
+
+* a guard of the new mode that already lies beyond zero on its firing side
+  is taken at once (chained switch at the same instant);
+* a guard of the new mode that starts at zero (within its noise level) is
+  judged by the Taylor series of the guard along the new mode's flow: if it
+  leaves zero towards its firing side, it is taken at once; otherwise it is
+  *disarmed* (reported to IDA as a constant of the safe sign) until it has
+  left zero by more than its noise level, so that rounding flicker of a guard
+  that leaves zero only quadratically (slip -> stick) cannot re-fire it.
+
+The successor mode is therefore decided by the vector fields, not by the sign
+of a guard value that is zero up to rounding.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+from ._compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
+from ._dae import ROOT, TSTOP, ModeSolver
+from ._options import SolverOptions
+from ._system import HybridSystem
+from ._trajectory import Status, Trajectory, TransitionRecord
+
+__all__ = ["simulate", "initial_state", "SimulationError"]
+
+
+class SimulationError(RuntimeError):
+    """A simulation stopped before the end of its time span (raised when ``throw=True``)."""
+
+
+class _Stop(Exception):
+    def __init__(self, status: Status, message: str):
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+def initial_state(system: HybridSystem, x0, mode: str | None = None) -> np.ndarray:
+    """State vector from a mapping ``{variable: value}`` or an array.
+
+    Slave variables of ``mode`` may be omitted (they are solved), and so may
+    quadratures (they start at 0); every other variable must be given.
+    """
+    names = system.variable_names
+    if isinstance(x0, Mapping):
+        unknown = [k for k in x0 if k not in names]
+        if unknown:
+            raise ValueError(
+                f"initial state names unknown variable(s) {', '.join(map(str, unknown))}; variables: {', '.join(names)}"
+            )
+        optional = set(system.quadratures) | (set(system.algebraic_variables(mode)) if mode else set())
+        missing = [n for n in names if n not in x0 and n not in optional]
+        if missing:
+            raise ValueError(f"initial state lacks variable(s) {', '.join(missing)}")
+        y = np.array([float(x0.get(n, 0.0)) for n in names])
+    else:
+        y = np.array(x0, dtype=float).ravel()
+        if y.size != len(names):
+            raise ValueError(
+                f"initial state has {y.size} values; model `{system.name}` has {len(names)} variables ({', '.join(names)})"
+            )
+    if not np.all(np.isfinite(y)):
+        bad = [n for n, v in zip(names, y, strict=True) if not math.isfinite(v)]
+        raise ValueError(f"initial state is not finite for {', '.join(bad)}")
+    return y
+
+
+def simulate(
+    system: HybridSystem,
+    params: Mapping[str, float],
+    t_span: Sequence[float],
+    x0,
+    mode0: str | None = None,
+    *,
+    t_eval: Sequence[float] | None = None,
+    samples_per_period: int | None = None,
+    include_events: bool | None = None,
+    options: SolverOptions | None = None,
+    max_transitions: int = 1_000_000,
+    throw: bool = True,
+    progress: Callable[[float], None] | None = None,
+) -> Trajectory:
+    """Simulate a hybrid system, event-driven, with IDA.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        The model.
+    params : mapping of str to float
+        Values of all parameters (see :meth:`HybridSystem.preset`); nothing is
+        filled in silently.
+    t_span : (float, float)
+        Start and end time [s], ``t0 < t1``.
+    x0 : mapping of str to float, or array_like, shape (n_vars,)
+        Initial state. Slave variables of ``mode0`` are re-solved.
+    mode0 : str, optional
+        Initial mode (default: the system's ``initial_mode``). If it is not
+        admissible at ``x0`` the switches it implies are taken at ``t0``.
+    t_eval : array_like, optional
+        Sample times in ``[t0, t1]``, increasing.
+    samples_per_period : int, optional
+        Sample the forcing period this many times (needs a system period).
+    include_events : bool, optional
+        Also sample both sides of every switch (default: when neither
+        ``t_eval`` nor ``samples_per_period`` is given, then every internal
+        step is sampled too).
+    options : SolverOptions, optional
+        Tolerances and limits.
+    max_transitions : int
+        Stop (status ``MAX_TRANSITIONS``) after this many switches.
+    throw : bool
+        Raise :class:`SimulationError` if the run stops early; otherwise the
+        failure is returned as data (``status < 0``, ``success=False``).
+    progress : callable, optional
+        Called with the fraction of the time span done (0..1), at most about
+        200 times.
+
+    Returns
+    -------
+    Trajectory
+
+    Raises
+    ------
+    ValueError
+        Bad input, before any integration.
+    SimulationError
+        With ``throw=True``, when the run stops early (solver failure, Zeno
+        burst, no admissible mode, too many transitions).
+
+    Examples
+    --------
+    A ball bouncing with restitution 0.5, dropped from 1 m:
+
+    >>> from hybrid import HybridSystem, Mode, Transition, simulate
+    >>> ball = HybridSystem(
+    ...     name="ball", variables=["h", "v"], parameters=["g", "e"],
+    ...     modes=[Mode("fly", derivatives={"h": "v", "v": "-g"})],
+    ...     transitions=[Transition("fly", "fly", guard="h", direction=-1,
+    ...                             name="impact", reset={"v": "-e*v"})],
+    ... )
+    >>> tr = simulate(ball, {"g": 9.81, "e": 0.5}, (0.0, 1.0), {"h": 1.0, "v": 0.0}, "fly")
+    >>> round(tr.events[0].t, 6)  # sqrt(2/9.81)
+    0.451524
+    """
+    if not isinstance(system, HybridSystem):
+        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+    if params is None or not isinstance(params, Mapping):
+        raise TypeError("`params` must be a mapping of parameter names to values (see HybridSystem.preset)")
+    options = SolverOptions() if options is None else options
+    if not isinstance(options, SolverOptions):
+        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"`t_span` must be two numbers (t0, t1), got {t_span!r}") from None
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise ValueError(f"`t_span` must be finite with t1 > t0, got {t_span!r}")
+    if isinstance(max_transitions, bool) or not isinstance(max_transitions, int) or max_transitions < 0:
+        raise ValueError(f"`max_transitions` must be an integer >= 0, got {max_transitions!r}")
+    mode0 = mode0 if mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise ValueError(
+            f"`mode0` is required: model `{system.name}` declares no initial mode; modes: {', '.join(system.mode_names)}"
+        )
+    system.mode(mode0)
+    cs = CompiledSystem(system, params)
+    y0 = initial_state(system, x0, mode0)
+    atol = options.atol_vector(system.variable_names)
+    samples = _sample_times(t_eval, samples_per_period, cs.period, t0, t1)
+    if include_events is None:
+        include_events = samples is None
+    run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
+    return run.execute(y0, cs.mode_id(mode0), throw)
+
+
+def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | None:
+    if t_eval is not None and spp is not None:
+        raise ValueError("give `t_eval` or `samples_per_period`, not both")
+    if spp is not None:
+        if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
+            raise ValueError(f"`samples_per_period` must be an integer >= 1, got {spp!r}")
+        if period is None:
+            raise ValueError("`samples_per_period` needs a model with a forcing period")
+        n = int(math.floor((t1 - t0) / period * spp + 1e-9))
+        ts = t0 + np.arange(n + 1) * (period / spp)
+        ts = ts[ts <= t1]
+        if ts[-1] < t1:
+            ts = np.append(ts, t1)
+        return ts
+    if t_eval is None:
+        return None
+    ts = np.asarray(t_eval, dtype=float).ravel()
+    if ts.size == 0 or not np.all(np.isfinite(ts)):
+        raise ValueError("`t_eval` must be a non-empty array of finite times")
+    if np.any(np.diff(ts) < 0) or ts[0] < t0 or ts[-1] > t1:
+        raise ValueError(f"`t_eval` must be increasing and lie within t_span [{t0}, {t1}]")
+    return ts
+
+
+class _Run:
+    """State of one simulation (kept out of :func:`simulate` for readability)."""
+
+    def __init__(
+        self,
+        cs: CompiledSystem,
+        options: SolverOptions,
+        atol,
+        t0,
+        t1,
+        samples,
+        include_events,
+        max_transitions,
+        progress,
+    ):
+        self.cs = cs
+        self.opt = options
+        self.atol = np.asarray(atol)
+        self.t0, self.t1 = t0, t1
+        self.samples = samples
+        self.next_sample = 0
+        self.include_events = include_events
+        self.record_steps = samples is None
+        self.max_transitions = max_transitions
+        self.progress = progress
+        span = t1 - t0
+        self.max_step = options.max_step or (cs.period / 16.0 if cs.period else span / 50.0)
+        self.zeno_window = options.zeno_window or 1e-6 * (cs.period or span)
+        self.solvers: dict[int, ModeSolver] = {}
+        self.ts: list[float] = []
+        self.ys: list[np.ndarray] = []
+        self.ms: list[int] = []
+        self.events: list[TransitionRecord] = []
+        self.recent = deque(maxlen=options.zeno_count)
+        self.nfev = self.njev = self.n_steps = 0
+        self._next_progress = 0.0
+
+    # ------------------------------------------------------------------
+    def solver(self, mode: int) -> ModeSolver:
+        s = self.solvers.get(mode)
+        if s is None:
+            s = ModeSolver(
+                self.cs.modes[mode],
+                rtol=self.opt.rtol,
+                atol=self.atol,
+                max_step=self.max_step,
+                max_num_steps=self.opt.max_num_steps,
+            )
+            self.solvers[mode] = s
+        return s
+
+    def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
+        grad, _ = cm.guard_gradient(k, t, y)
+        scale = self.atol + self.opt.rtol * np.abs(y)
+        return self.opt.guard_noise * float(np.abs(grad) @ scale) + 1e-14
+
+    def record(self, t: float, y: np.ndarray, mode: int) -> None:
+        self.ts.append(t)
+        self.ys.append(np.array(y, dtype=float))
+        self.ms.append(mode)
+
+    # ------------------------------------------------------------------
+    def enter(self, mode: int, t: float, y: np.ndarray, first_source: str | None):
+        """Consistent state in ``mode`` at ``t``, following switches the vector fields force.
+
+        Returns ``(mode, y, yp, disarmed)`` with ``disarmed`` mapping guard
+        index to the safe sign reported to IDA while it is disarmed.
+        """
+        visited: list[int] = []
+        while True:
+            cm = self.cs.modes[mode]
+            visited.append(mode)
+            try:
+                y = cm.solve_algebraic(t, y)
+            except AlgebraicSolveError as exc:
+                raise _Stop(Status.ALGEBRAIC_FAILED, str(exc)) from None
+            vals = cm.guard_values(t, y)
+            fire, disarmed = None, {}
+            for g in cm.guards:
+                h = vals[g.index]
+                d = g.direction
+                eta = self.noise(cm, g.index, t, y)
+                if abs(h) <= eta:
+                    s = lead_sign(cm.guard_series(g.index, t, y, self.opt.taylor_order), eta)
+                    if d != 0 and s == d:
+                        fire = g
+                        break
+                    disarmed[g.index] = s if s != 0 else (-float(d) if d else 1.0)
+                elif d != 0 and d * h > 0:
+                    fire = g
+                    break
+            if fire is None:
+                if not np.all(np.isfinite(y)):
+                    raise _Stop(
+                        Status.SOLVER_FAILED, f"state became non-finite at t={t!r} in mode `{cm.name}`"
+                    )
+                return mode, y, cm.derivatives(t, y), disarmed
+            y_new = self.apply_reset(cm, fire, t, y)
+            target = fire.target
+            if target in visited or len(visited) > self.opt.max_chain:
+                path = " -> ".join(self.cs.modes[m].name for m in visited + [target])
+                if target == mode:
+                    raise _Stop(
+                        Status.ZENO,
+                        f"Zeno point at t={t!r}: transition `{fire.name}` of mode `{cm.name}` fires again at "
+                        "the instant it was taken (switches accumulate here)",
+                    )
+                raise _Stop(
+                    Status.NO_ADMISSIBLE_MODE,
+                    f"no admissible mode at t={t!r}: the vector fields send the state around {path}; "
+                    "check the guards' directions and the sliding (stick) mode of the model",
+                )
+            self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True)
+            mode, y = target, y_new
+
+    def apply_reset(self, cm: CompiledMode, g, t: float, y: np.ndarray) -> np.ndarray:
+        if not g.reset:
+            return np.array(y)
+        v = [t, *y.tolist()]
+        out = np.array(y)
+        for i, fn in g.reset:
+            out[i] = fn(v)
+        return out
+
+    def log(self, t, cm, g, h, y_minus, y_plus, target, chained) -> None:
+        tgt = self.cs.modes[target]
+        # x_plus is completed (slave variables re-solved) lazily: store the reset state.
+        self.events.append(
+            TransitionRecord(
+                t, cm.name, tgt.name, g.name, float(h), np.array(y_minus), np.array(y_plus), chained
+            )
+        )
+        self.recent.append(t)
+        if len(self.events) > self.max_transitions:
+            raise _Stop(
+                Status.MAX_TRANSITIONS,
+                f"stopped after {self.max_transitions} transitions at t={t!r}; raise `max_transitions` to go on",
+            )
+        if len(self.recent) == self.recent.maxlen and self.recent[-1] - self.recent[0] <= self.zeno_window:
+            raise _Stop(
+                Status.ZENO,
+                f"Zeno burst: {len(self.recent)} transitions within {self.recent[-1] - self.recent[0]:.3g} s "
+                f"before t={t!r} (last {cm.name} -> {tgt.name} by `{g.name}`); the model accumulates switches "
+                "in a vanishing time",
+            )
+
+    def fix_plus(self, first_event: int, y_plus: np.ndarray) -> None:
+        """Store the consistent post-switch state in the records made since ``first_event``."""
+        ev = self.events[-1]
+        self.events[-1] = TransitionRecord(
+            ev.t, ev.source, ev.target, ev.guard, ev.guard_value, ev.x_minus, np.array(y_plus), ev.chained
+        )
+
+    # ------------------------------------------------------------------
+    def execute(self, y0: np.ndarray, mode0: int, throw: bool) -> Trajectory:
+        t, y, mode = self.t0, y0, mode0
+        start_mode = self.cs.modes[mode0].name
+        status, message = Status.COMPLETED, "reached the end of the time span"
+        try:
+            n_before = len(self.events)
+            mode, y, yp, disarmed = self.enter(mode, t, y, None)
+            if len(self.events) > n_before:
+                self.fix_plus(n_before, y)
+            start_mode = self.cs.modes[mode0].name
+            self.emit_samples_upto(t, lambda s: (y, mode), inclusive=True)
+            if self.record_steps:
+                self.record(t, y, mode)
+            while t < self.t1:
+                t, y, mode, yp, disarmed = self.segment(t, y, yp, mode, disarmed)
+        except _Stop as stop:
+            status, message = stop.status, stop.message
+        return self.finish(t, y, mode, status, message, start_mode, throw)
+
+    def emit_samples_upto(self, t: float, state_at, inclusive: bool) -> None:
+        if self.samples is None:
+            return
+        s = self.samples
+        while self.next_sample < s.size and (
+            s[self.next_sample] < t or (inclusive and s[self.next_sample] <= t)
+        ):
+            ts = float(s[self.next_sample])
+            ys, m = state_at(ts)
+            self.record(ts, ys, m)
+            self.next_sample += 1
+
+    def segment(self, t, y, yp, mode, disarmed):
+        """Integrate in ``mode`` from ``(t, y)`` up to the next switch or the end."""
+        cm = self.cs.modes[mode]
+        solver = self.solver(mode)
+        solver.armed[:] = True
+        for k, s in disarmed.items():
+            solver.armed[k] = False
+            solver.safe[k] = s
+        noise = {k: self.noise(cm, k, t, y) for k in disarmed}
+        solver.start(t, y, yp)
+        try:
+            while True:
+                one_step = self.record_steps or bool(disarmed)
+                if not one_step and self.samples is not None and self.next_sample < self.samples.size:
+                    tout = float(self.samples[self.next_sample])
+                else:
+                    tout = self.t1
+                r = solver.step(tout, self.t1, one_step=one_step)
+                self.n_steps += 1
+                if r.status < 0:
+                    raise _Stop(
+                        Status.SOLVER_FAILED,
+                        f"IDA failed in mode `{cm.name}` at t={r.t!r}: {r.message} (status {r.status})",
+                    )
+                if not np.all(np.isfinite(r.y)):
+                    raise _Stop(
+                        Status.SOLVER_FAILED, f"state became non-finite at t={r.t!r} in mode `{cm.name}`"
+                    )
+                missed = None
+                if disarmed:
+                    v = [r.t, *r.y.tolist()]
+                    for k in list(disarmed):
+                        h = cm.guards[k].fn(v)
+                        if disarmed[k] * h > noise[k]:
+                            solver.armed[k] = True
+                            del disarmed[k]
+                        elif -disarmed[k] * h > noise[k] and (cm.guards[k].direction in (0, -disarmed[k])):
+                            missed = k
+                            break
+                fired = r.fired[0] if (r.status == ROOT and r.fired) else missed
+                if fired is not None:
+                    self.emit_samples_upto(r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False)
+                    return self.switch(cm, fired, r.t, r.y)
+                self.emit_samples_upto(
+                    r.t, lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode), inclusive=True
+                )
+                if self.record_steps:
+                    self.record(r.t, r.y, mode)
+                self.report(r.t)
+                if r.status == TSTOP or r.t >= self.t1:
+                    return self.t1, r.y, mode, r.yp, {}
+        finally:
+            self.nfev += solver.nfev_last
+            self.njev += solver.njev_last
+
+    def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
+        g = cm.guards[k]
+        h = g.fn([t, *y_minus.tolist()])
+        y_reset = self.apply_reset(cm, g, t, y_minus)
+        if self.include_events:
+            self.record(t, y_minus, cm.index)
+        self.log(t, cm, g, h, y_minus, y_reset, g.target, chained=False)
+        n_before = len(self.events)
+        mode, y, yp, disarmed = self.enter(g.target, t, y_reset, cm.name)
+        self.fix_plus(n_before, y)
+        if self.include_events:
+            self.record(t, y, mode)
+        return t, y, mode, yp, disarmed
+
+    def report(self, t: float) -> None:
+        if self.progress is None:
+            return
+        frac = (t - self.t0) / (self.t1 - self.t0)
+        if frac >= self._next_progress:
+            self.progress(min(frac, 1.0))
+            self._next_progress = frac + 0.005
+
+    def finish(self, t, y, mode, status, message, start_mode, throw) -> Trajectory:
+        cs = self.cs
+        if self.progress is not None and status == Status.COMPLETED:
+            self.progress(1.0)
+        ts = np.array(self.ts)
+        ys = np.array(self.ys).reshape(len(self.ts), len(cs.names))
+        ms = np.array(self.ms, dtype=int)
+        names = np.array([m.name for m in cs.modes], dtype=object)
+        outputs = {}
+        for o in cs.system.outputs:
+            col = np.empty(ts.size)
+            for k, cm in enumerate(cs.modes):
+                sel = np.flatnonzero(ms == k)
+                fn = cm.outputs[o]
+                for i in sel:
+                    col[i] = fn([ts[i], *ys[i].tolist()])
+            outputs[o] = col
+        traj = Trajectory(
+            t=ts,
+            y=ys,
+            mode=names[ms] if ms.size else np.array([], dtype=object),
+            names=cs.names,
+            outputs=outputs,
+            events=tuple(self.events),
+            status=status,
+            message=message,
+            nfev=self.nfev,
+            njev=self.njev,
+            n_steps=self.n_steps,
+            params=dict(cs.params),
+            system=cs.system,
+            t_final=float(t),
+            y_final=np.array(y, dtype=float),
+            mode_final=cs.modes[mode].name,
+            t_start=self.t0,
+            mode_start=start_mode,
+        )
+        if throw and status < 0:
+            raise SimulationError(message)
+        return traj

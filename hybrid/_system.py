@@ -1,0 +1,557 @@
+"""Declarative hybrid systems: variables, parameters, modes, guards, transitions.
+
+A :class:`HybridSystem` is pure data. Every equation, guard, reset and
+definition is an expression string over the system's named variables,
+parameters, definitions and the time ``t``; all of them are parsed and checked
+once, when the system is constructed, so that a malformed model fails before
+any integration starts with a message naming the item at fault.
+
+Semantics
+---------
+* Each mode gives, for every variable, either a time derivative
+  (``derivatives``: the variable is differential in that mode) or an algebraic
+  residual (``algebraic``: the variable is a slave variable fixed by
+  ``0 = residual``). A variable may be differential in one mode and algebraic
+  in another. ``HybridSystem.equations`` holds derivatives shared by all modes.
+* A transition leaves ``source`` for ``target`` when its guard crosses zero in
+  its ``direction``: +1 rising, -1 falling, 0 either way. A guard with
+  direction +1 (-1) also bounds its source mode: the mode lives where the guard
+  is negative (positive), and entering the mode where the guard already lies
+  beyond zero on its firing side takes that transition at once.
+* ``reset`` maps variables to expressions evaluated with the values just before
+  the switch; variables not named are continuous.
+* ``quadratures`` are differential variables that only accumulate integrals
+  (work, dissipated energy); no equation or guard may depend on them.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+from ._expr import Expr, ExpressionError, compile_scalar, free_symbols, parse, substitute
+
+__all__ = ["Variable", "Parameter", "Mode", "Transition", "HybridSystem", "ModelError"]
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_MODE_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_+\-]*$")
+_RESERVED = {"t", "pi"}
+_DOMAINS = ("real", "positive", "nonnegative")
+
+
+class ModelError(ValueError):
+    """A hybrid-system definition is inconsistent (unknown name, missing equation, ...)."""
+
+
+def _frozen_map(m: Mapping | None, what: str) -> Mapping[str, str]:
+    if m is None:
+        return MappingProxyType({})
+    if not isinstance(m, Mapping):
+        raise ModelError(f"{what} must be a mapping of names to expression strings, got {m!r}")
+    return MappingProxyType(dict(m))
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A state variable.
+
+    Attributes
+    ----------
+    name : str
+        Identifier used in expressions.
+    unit : str
+        Physical unit (for documentation, CSV headers and plots).
+    description : str
+        One line saying what the variable is.
+    """
+
+    name: str
+    unit: str = ""
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A model parameter.
+
+    Attributes
+    ----------
+    name : str
+        Identifier used in expressions.
+    unit : str
+        Physical unit.
+    description : str
+        One line saying what the parameter is.
+    domain : {"real", "positive", "nonnegative"}
+        Values allowed; every value must also be finite.
+    """
+
+    name: str
+    unit: str = ""
+    description: str = ""
+    domain: str = "real"
+
+    def check(self, value: object) -> float:
+        """Return ``value`` as a float, or raise a ValueError naming the parameter."""
+        what = f"parameter `{self.name}`" + (f" ({self.description})" if self.description else "")
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            try:
+                value = float(value)  # numpy scalars, strings of numbers from a CLI
+            except (TypeError, ValueError):
+                raise ValueError(f"{what} must be a real number, got {value!r}") from None
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{what} must be finite, got {value!r}")
+        if self.domain == "positive" and not value > 0:
+            raise ValueError(f"{what} must be > 0, got {value!r}")
+        if self.domain == "nonnegative" and not value >= 0:
+            raise ValueError(f"{what} must be >= 0, got {value!r}")
+        return value
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One discrete state of a hybrid system.
+
+    Attributes
+    ----------
+    name : str
+        Mode name (letters, digits, ``_``, ``+``, ``-``).
+    derivatives : mapping of str to str
+        ``{variable: expression of its time derivative}`` for the variables
+        that are differential in this mode (merged over the system's shared
+        ``equations``).
+    algebraic : mapping of str to str
+        ``{variable: residual}``: the slave variables of this mode, each fixed
+        by ``0 = residual``.
+    definitions : mapping of str to str
+        Named expressions valid in this mode; they override the system's
+        definitions of the same name.
+    """
+
+    name: str
+    derivatives: Mapping[str, str] = field(default_factory=dict)
+    algebraic: Mapping[str, str] = field(default_factory=dict)
+    definitions: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(
+            self, "derivatives", _frozen_map(self.derivatives, f"mode `{self.name}` derivatives")
+        )
+        object.__setattr__(self, "algebraic", _frozen_map(self.algebraic, f"mode `{self.name}` algebraic"))
+        object.__setattr__(
+            self, "definitions", _frozen_map(self.definitions, f"mode `{self.name}` definitions")
+        )
+
+
+@dataclass(frozen=True)
+class Transition:
+    """A guarded switch between two modes.
+
+    Attributes
+    ----------
+    source, target : str
+        Mode names.
+    guard : str
+        Expression whose zero crossing triggers the switch.
+    direction : {-1, 0, 1}
+        Crossing direction that fires: +1 rising, -1 falling, 0 either.
+    name : str
+        Identifier in event logs (default ``"source->target"``).
+    reset : mapping of str to str
+        ``{variable: expression}`` applied at the switch (other variables are
+        continuous).
+    """
+
+    source: str
+    target: str
+    guard: str
+    direction: int = 0
+    name: str = ""
+    reset: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self):
+        if not self.name:
+            object.__setattr__(self, "name", f"{self.source}->{self.target}")
+        object.__setattr__(self, "reset", _frozen_map(self.reset, f"transition `{self.name}` reset"))
+        if isinstance(self.direction, bool) or self.direction not in (-1, 0, 1):
+            raise ModelError(
+                f"transition `{self.name}`: direction must be -1, 0 or 1, got {self.direction!r}"
+            )
+
+
+def _as_variables(items) -> tuple[Variable, ...]:
+    out = []
+    for it in items:
+        out.append(it if isinstance(it, Variable) else Variable(str(it)))
+    return tuple(out)
+
+
+def _as_parameters(items) -> tuple[Parameter, ...]:
+    out = []
+    for it in items:
+        out.append(it if isinstance(it, Parameter) else Parameter(str(it)))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class HybridSystem:
+    """A hybrid automaton given as data.
+
+    Attributes
+    ----------
+    name : str
+        Model name.
+    variables : tuple of Variable
+        State variables, in the order of state vectors ``y``.
+    parameters : tuple of Parameter
+        Parameters (their values are passed to :func:`hybrid.simulate`).
+    modes : tuple of Mode
+        Discrete states.
+    transitions : tuple of Transition
+        Guarded switches.
+    equations : mapping of str to str
+        Derivatives shared by every mode (a mode's own entries take precedence).
+    definitions : mapping of str to str
+        Named expressions usable everywhere (e.g. a friction force ``H``).
+    quadratures : tuple of str
+        Variables that only integrate outputs (e.g. work, dissipated energy).
+    outputs : tuple of str
+        Definitions recorded along trajectories.
+    period : str or None
+        Expression of the forcing period, if the system is periodically forced
+        (bounds the step size; sets samples per period).
+    initial_mode : str or None
+        Default initial mode.
+    presets : mapping of str to mapping of str to float
+        Named parameter sets.
+    title, reference : str
+        Documentation.
+    plot : mapping
+        Hints for the CLI's figure (e.g. ``force``, ``velocity``,
+        ``displacements``, ``shade_modes``).
+    """
+
+    name: str
+    variables: tuple
+    parameters: tuple
+    modes: tuple
+    transitions: tuple
+    equations: Mapping[str, str] = field(default_factory=dict)
+    definitions: Mapping[str, str] = field(default_factory=dict)
+    quadratures: tuple = ()
+    outputs: tuple = ()
+    period: str | None = None
+    initial_mode: str | None = None
+    presets: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    title: str = ""
+    reference: str = ""
+    plot: Mapping[str, object] = field(default_factory=dict)
+
+    # ------------------------------------------------------------------
+    def __post_init__(self):
+        set_ = object.__setattr__
+        set_(self, "variables", _as_variables(self.variables))
+        set_(self, "parameters", _as_parameters(self.parameters))
+        set_(self, "modes", tuple(self.modes))
+        set_(self, "transitions", tuple(self.transitions))
+        set_(self, "quadratures", tuple(self.quadratures))
+        set_(self, "outputs", tuple(self.outputs))
+        set_(self, "equations", _frozen_map(self.equations, "equations"))
+        set_(self, "definitions", _frozen_map(self.definitions, "definitions"))
+        set_(self, "plot", MappingProxyType(dict(self.plot)))
+        set_(
+            self,
+            "presets",
+            MappingProxyType({k: MappingProxyType(dict(v)) for k, v in dict(self.presets).items()}),
+        )
+        try:
+            self._validate()
+        except ExpressionError as exc:
+            raise ModelError(f"model `{self.name}`: {exc}") from None
+
+    def _validate(self) -> None:
+        pre = f"model `{self.name}`"
+        vnames = [v.name for v in self.variables]
+        pnames = [p.name for p in self.parameters]
+        if not vnames:
+            raise ModelError(f"{pre}: no variables")
+        if not self.modes:
+            raise ModelError(f"{pre}: no modes")
+        for kind, names in (("variable", vnames), ("parameter", pnames)):
+            for n in names:
+                if not _NAME.match(n) or n in _RESERVED:
+                    raise ModelError(f"{pre}: invalid {kind} name `{n}` (letters, digits, _; not t or pi)")
+        for p in self.parameters:
+            if p.domain not in _DOMAINS:
+                raise ModelError(f"{pre}: parameter `{p.name}` has domain {p.domain!r}; allowed: {_DOMAINS}")
+        seen: dict[str, str] = {}
+        for kind, names in (
+            ("variable", vnames),
+            ("parameter", pnames),
+            ("definition", list(self.definitions)),
+        ):
+            for n in names:
+                if n in seen:
+                    raise ModelError(f"{pre}: name `{n}` is both a {seen[n]} and a {kind}")
+                seen[n] = kind
+        for n in self.definitions:
+            if not _NAME.match(n) or n in _RESERVED:
+                raise ModelError(f"{pre}: invalid definition name `{n}`")
+        mnames = [m.name for m in self.modes]
+        for m in self.modes:
+            if not isinstance(m, Mode):
+                raise ModelError(f"{pre}: modes must be Mode objects, got {m!r}")
+            if not _MODE_NAME.match(m.name):
+                raise ModelError(f"{pre}: invalid mode name {m.name!r}")
+        if len(set(mnames)) != len(mnames):
+            raise ModelError(f"{pre}: duplicate mode names in {mnames}")
+        for n in self.equations:
+            if n not in vnames:
+                raise ModelError(
+                    f"{pre}: shared equation given for unknown variable `{n}`; variables: {', '.join(vnames)}"
+                )
+        for q in self.quadratures:
+            if q not in vnames:
+                raise ModelError(f"{pre}: quadrature `{q}` is not a variable")
+        if self.initial_mode is not None and self.initial_mode not in mnames:
+            raise ModelError(
+                f"{pre}: initial mode `{self.initial_mode}` does not exist; modes: {', '.join(mnames)}"
+            )
+
+        base_known = set(vnames) | set(pnames) | {"t"}
+        parsed_defs = self._parse_definitions(self.definitions, base_known, {}, "definition")
+        self._set_cache("defs", parsed_defs)
+
+        mode_data: dict[str, dict] = {}
+        for m in self.modes:
+            where = f"mode `{m.name}`"
+            for n in list(m.derivatives) + list(m.algebraic):
+                if n not in vnames:
+                    raise ModelError(
+                        f"{pre}: {where} gives an equation for unknown variable `{n}`; variables: {', '.join(vnames)}"
+                    )
+            for n in m.definitions:
+                if n in vnames or n in pnames or not _NAME.match(n) or n in _RESERVED:
+                    raise ModelError(f"{pre}: {where}: invalid definition name `{n}`")
+            derivs = {**self.equations, **m.derivatives}
+            for n in m.algebraic:  # a slave variable of this mode drops its shared derivative
+                derivs.pop(n, None)
+            both = set(m.derivatives) & set(m.algebraic)
+            if both:
+                raise ModelError(
+                    f"{pre}: {where}: `{sorted(both)[0]}` has both a derivative and an algebraic equation"
+                )
+            missing = [n for n in vnames if n not in derivs and n not in m.algebraic]
+            if missing:
+                raise ModelError(f"{pre}: {where} has no equation for variable(s) {', '.join(missing)}")
+            for q in self.quadratures:
+                if q in m.algebraic:
+                    raise ModelError(f"{pre}: {where}: quadrature `{q}` cannot be algebraic")
+            known = base_known | set(self.definitions) | set(m.definitions)
+            mdefs = dict(parsed_defs)
+            mdefs.update(self._parse_definitions(m.definitions, known, parsed_defs, f"{where} definition"))
+            expand = _Expander(mdefs)
+            deriv_e = {
+                n: expand(parse(derivs[n], known, f"{pre}: {where}: derivative of `{n}`"))
+                for n in vnames
+                if n in derivs
+            }
+            alg_e = {
+                n: expand(parse(r, known, f"{pre}: {where}: algebraic equation of `{n}`"))
+                for n, r in m.algebraic.items()
+            }
+            for n, e in alg_e.items():
+                if not (free_symbols(e) & set(m.algebraic)):
+                    raise ModelError(
+                        f"{pre}: {where}: algebraic equation of `{n}` does not involve any slave variable of the mode"
+                    )
+            mode_data[m.name] = {"derivatives": deriv_e, "algebraic": alg_e, "defs": mdefs, "expand": expand}
+
+        trans = []
+        names_by_source: dict[str, set[str]] = {}
+        for tr in self.transitions:
+            if not isinstance(tr, Transition):
+                raise ModelError(f"{pre}: transitions must be Transition objects, got {tr!r}")
+            for end in ("source", "target"):
+                if getattr(tr, end) not in mnames:
+                    raise ModelError(
+                        f"{pre}: transition `{tr.name}` has {end} mode `{getattr(tr, end)}` that does not exist; modes: {', '.join(mnames)}"
+                    )
+            used = names_by_source.setdefault(tr.source, set())
+            if tr.name in used:
+                raise ModelError(f"{pre}: duplicate transition name `{tr.name}` from mode `{tr.source}`")
+            used.add(tr.name)
+            md = mode_data[tr.source]
+            known = base_known | set(md["defs"])
+            g = md["expand"](parse(tr.guard, known, f"{pre}: guard of transition `{tr.name}`"))
+            resets = {}
+            for n, r in tr.reset.items():
+                if n not in vnames:
+                    raise ModelError(f"{pre}: transition `{tr.name}` resets unknown variable `{n}`")
+                resets[n] = md["expand"](parse(r, known, f"{pre}: reset of `{n}` in transition `{tr.name}`"))
+            trans.append({"guard": g, "reset": resets})
+        # Quadratures must not feed back into the dynamics or the guards.
+        qs = set(self.quadratures)
+        if qs:
+            for mname, md in mode_data.items():
+                for n, e in list(md["derivatives"].items()) + list(md["algebraic"].items()):
+                    if n not in qs and free_symbols(e) & qs:
+                        raise ModelError(
+                            f"{pre}: mode `{mname}`: equation of `{n}` depends on a quadrature ({', '.join(sorted(free_symbols(e) & qs))})"
+                        )
+            for tr, td in zip(self.transitions, trans, strict=True):
+                if free_symbols(td["guard"]) & qs:
+                    raise ModelError(f"{pre}: guard of transition `{tr.name}` depends on a quadrature")
+        for o in self.outputs:
+            for m in self.modes:
+                if o not in mode_data[m.name]["defs"]:
+                    raise ModelError(f"{pre}: output `{o}` is not a definition in mode `{m.name}`")
+        if self.period is not None:
+            pe = parse(self.period, set(pnames), f"{pre}: period")
+            self._set_cache("period", pe)
+        else:
+            self._set_cache("period", None)
+        for pname, values in self.presets.items():
+            for k in values:
+                if k not in pnames:
+                    raise ModelError(
+                        f"{pre}: preset `{pname}` sets unknown parameter `{k}`; parameters: {', '.join(pnames)}"
+                    )
+        self._set_cache("modes", mode_data)
+        self._set_cache("transitions", trans)
+
+    def _set_cache(self, key: str, value) -> None:
+        cache = self.__dict__.setdefault("_cache", {})
+        cache[key] = value
+
+    @staticmethod
+    def _parse_definitions(
+        defs: Mapping[str, str], known: set[str], outer: Mapping[str, Expr], what: str
+    ) -> dict[str, Expr]:
+        known = known | set(defs) | set(outer)
+        raw = {n: parse(text, known, f"{what} `{n}`") for n, text in defs.items()}
+        # Detect cycles among the new definitions.
+        state: dict[str, int] = {}
+
+        def visit(n: str, path: list[str]) -> None:
+            if state.get(n) == 2:
+                return
+            if state.get(n) == 1:
+                raise ModelError(f"{what}s form a cycle: {' -> '.join(path + [n])}")
+            state[n] = 1
+            for d in free_symbols(raw[n]):
+                if d in raw:
+                    visit(d, path + [n])
+            state[n] = 2
+
+        for n in raw:
+            visit(n, [])
+        out = dict(outer)
+        out.update(raw)
+        exp = _Expander(out)
+        return {n: exp(e) for n, e in out.items()}
+
+    # ------------------------------------------------------------------
+    @property
+    def variable_names(self) -> tuple[str, ...]:
+        """Names of the state variables, in state-vector order."""
+        return tuple(v.name for v in self.variables)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the parameters."""
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """Names of the modes."""
+        return tuple(m.name for m in self.modes)
+
+    def mode(self, name: str) -> Mode:
+        """The mode called ``name`` (ValueError listing the modes if there is none)."""
+        for m in self.modes:
+            if m.name == name:
+                return m
+        raise ValueError(f"model `{self.name}` has no mode `{name}`; modes: {', '.join(self.mode_names)}")
+
+    def algebraic_variables(self, mode: str) -> tuple[str, ...]:
+        """Names of the slave (algebraic) variables of ``mode``."""
+        return tuple(self.mode(mode).algebraic)
+
+    def parameter_values(
+        self,
+        values: Mapping[str, object] | None = None,
+        *,
+        preset: str | None = None,
+    ) -> dict[str, float]:
+        """Complete, checked parameter values.
+
+        Parameters
+        ----------
+        values : mapping, optional
+            Values given explicitly; they override the preset's.
+        preset : str, optional
+            Name of a preset of the model to start from.
+
+        Returns
+        -------
+        dict of str to float
+
+        Raises
+        ------
+        ValueError
+            Unknown preset or parameter name, a missing parameter, or a value
+            that is not finite or outside the parameter's domain.
+        """
+        out: dict[str, object] = {}
+        if preset is not None:
+            if preset not in self.presets:
+                have = ", ".join(self.presets) or "none"
+                raise ValueError(f"model `{self.name}` has no preset `{preset}`; presets: {have}")
+            out.update(self.presets[preset])
+        if values:
+            for k in values:
+                if k not in self.parameter_names:
+                    raise ValueError(
+                        f"model `{self.name}` has no parameter `{k}`; parameters: {', '.join(self.parameter_names)}"
+                    )
+            out.update(values)
+        missing = [p for p in self.parameter_names if p not in out]
+        if missing:
+            raise ValueError(f"model `{self.name}`: missing value for parameter(s) {', '.join(missing)}")
+        return {p.name: p.check(out[p.name]) for p in self.parameters}
+
+    def preset(self, name: str, **overrides: float) -> dict[str, float]:
+        """Parameter values of preset ``name`` with ``overrides`` applied (checked)."""
+        return self.parameter_values(overrides, preset=name)
+
+    def period_value(self, params: Mapping[str, float]) -> float | None:
+        """Forcing period for ``params`` (None if the model declares none)."""
+        pe = self._cache["period"]
+        if pe is None:
+            return None
+        value = float(compile_scalar(pe, {}, params)(()))
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(
+                f"model `{self.name}`: forcing period {self.period!r} evaluates to {value!r}; it must be finite and > 0"
+            )
+        return value
+
+
+class _Expander:
+    """Substitute definitions (already fully expanded) into an expression."""
+
+    def __init__(self, defs: Mapping[str, Expr]):
+        self.defs = defs
+
+    def __call__(self, e: Expr) -> Expr:
+        # Definitions may refer to others; iterate to a fixed point (cycles rejected earlier).
+        for _ in range(64):
+            if not (free_symbols(e) & set(self.defs)):
+                return e
+            e = substitute(e, self.defs)
+        raise ModelError("definitions nest too deeply")  # pragma: no cover

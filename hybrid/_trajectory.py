@@ -1,0 +1,152 @@
+"""Results of a simulation: :class:`Trajectory`, :class:`TransitionRecord`, :class:`Status`."""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Status", "TransitionRecord", "Trajectory"]
+
+
+class Status(enum.IntEnum):
+    """Why a simulation stopped (negative: failure)."""
+
+    COMPLETED = 0
+    SOLVER_FAILED = -1
+    ZENO = -2
+    NO_ADMISSIBLE_MODE = -3
+    ALGEBRAIC_FAILED = -4
+    MAX_TRANSITIONS = -5
+
+
+@dataclass(frozen=True)
+class TransitionRecord:
+    """One switch of the event log.
+
+    Attributes
+    ----------
+    t : float
+        Time of the switch [s].
+    source, target : str
+        Modes before and after.
+    guard : str
+        Name of the transition whose guard fired (for a chained switch at the
+        same instant, the transition taken at entry of the intermediate mode).
+    guard_value : float
+        Value of that guard at the located state (its residual).
+    x_minus, x_plus : ndarray, shape (n_vars,)
+        State just before and just after (reset applied, slave variables
+        re-solved in the new mode).
+    chained : bool
+        True if the switch was taken at entry of a mode, at the same instant
+        as the previous one.
+    """
+
+    t: float
+    source: str
+    target: str
+    guard: str
+    guard_value: float
+    x_minus: np.ndarray
+    x_plus: np.ndarray
+    chained: bool = False
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A simulated trajectory of a hybrid system.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Sample times [s]; a switch appears twice (before and after) when
+        events are sampled.
+    y : ndarray, shape (n, n_vars)
+        All variables at the samples, time-major; a slave variable's role in a
+        sample follows from its mode.
+    mode : ndarray of str, shape (n,)
+        Mode at each sample.
+    names : tuple of str
+        Variable names (columns of ``y``).
+    outputs : dict of str to ndarray, shape (n,)
+        The system's output definitions at the samples.
+    events : tuple of TransitionRecord
+        Every switch, in order.
+    status : Status
+    message : str
+    success : bool
+    nfev, njev : int
+        Residual and Jacobian evaluations of IDA.
+    n_steps : int
+        Calls into IDA.
+    params : dict of str to float
+        Parameter values used.
+    system : HybridSystem
+        The system simulated.
+    t_final : float
+        Time reached.
+    y_final : ndarray, shape (n_vars,)
+        State at ``t_final``.
+    mode_final : str
+        Mode at ``t_final``.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    mode: np.ndarray
+    names: tuple
+    outputs: dict
+    events: tuple
+    status: Status
+    message: str
+    nfev: int
+    njev: int
+    n_steps: int
+    params: Mapping[str, float]
+    system: object = field(repr=False)
+    t_final: float = 0.0
+    y_final: np.ndarray = None
+    mode_final: str = ""
+    t_start: float = 0.0
+    mode_start: str = ""
+
+    @property
+    def success(self) -> bool:
+        return self.status >= 0
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """A variable's or output's samples by name."""
+        if name in self.names:
+            return self.y[:, self.names.index(name)]
+        if name in self.outputs:
+            return self.outputs[name]
+        raise KeyError(f"no variable or output `{name}`; have: {', '.join(self.names + tuple(self.outputs))}")
+
+    @property
+    def n_transitions(self) -> int:
+        return len(self.events)
+
+    def final(self, name: str) -> float:
+        """Value of variable ``name`` at ``t_final``."""
+        return float(self.y_final[self.names.index(name)])
+
+    def mode_intervals(self) -> list[tuple[float, float, str]]:
+        """``(t_start, t_end, mode)`` of every phase, from the event log (exact switch times)."""
+        out = []
+        t0, m = self.t_start, self.mode_start
+        for ev in self.events:
+            if ev.t > t0 or not out:
+                out.append((t0, ev.t, m))
+            t0, m = ev.t, ev.target
+        out.append((t0, self.t_final, m))
+        return [iv for iv in out if iv[1] > iv[0]]
+
+    def __repr__(self) -> str:
+        return (
+            f"Trajectory(status={self.status.name}, success={self.success}, message={self.message!r}, "
+            f"t=[{self.t_start:g}, {self.t_final:g}], samples={self.t.size}, transitions={self.n_transitions}, "
+            f"mode_final={self.mode_final!r}, nfev={self.nfev}, njev={self.njev})"
+        )

@@ -1,0 +1,44 @@
+"""Built-in models: the paper's two sequential friction-spring dampers and a Coulomb oscillator.
+
+Each model is a data file (``*.toml`` beside this module) read by
+:func:`hybrid.load_system`; the functions below return them, cached.
+
+References
+----------
+.. [1] Aramendiz et al., "Sequential friction-spring dampers" (the paper in
+   ``shared/seed``); equations re-derived in ``docs/theory.md``.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from importlib import resources
+
+from hybrid import HybridSystem, load_system
+
+__all__ = ["absorber", "isolator", "coulomb", "BUILTIN"]
+
+
+@cache
+def _load(name: str) -> HybridSystem:
+    with resources.as_file(resources.files(__name__) / f"{name}.toml") as path:
+        return load_system(path)
+
+
+def absorber() -> HybridSystem:
+    """Dynamic vibration absorber (paper Fig. 1, Eqs. 1-2); presets ``standard``, ``fig3a``, ``fig3b``."""
+    return _load("absorber")
+
+
+def isolator() -> HybridSystem:
+    """Dynamic vibration isolator (paper Fig. 2, Eqs. 7-8); presets ``standard``, ``fig4a``, ``fig4b``."""
+    return _load("isolator")
+
+
+def coulomb() -> HybridSystem:
+    """1-DOF oscillator with Coulomb friction to ground; presets ``free``, ``forced``."""
+    return _load("coulomb")
+
+
+#: Built-in model factories by name.
+BUILTIN = {"absorber": absorber, "isolator": isolator, "coulomb": coulomb}
