@@ -40,6 +40,11 @@ Layout of a model file::
 
     [plot]                       # optional hints for the CLI figure
     force = "H"
+
+    [energy]                     # optional: names for energy balances
+    input = "W"
+    dissipated = "D"
+    mechanical = "E"
 """
 
 from __future__ import annotations
@@ -62,6 +67,7 @@ _TOP = {
     "modes",
     "transitions",
     "plot",
+    "energy",
 }
 _MODEL = {"name", "title", "reference", "period", "initial_mode", "quadratures", "outputs"}
 _VAR = {"unit", "description"}
@@ -178,4 +184,5 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         initial_mode=model.get("initial_mode"),
         presets=presets,
         plot=data.get("plot", {}),
+        energy=data.get("energy", {}),
     )

@@ -233,6 +233,10 @@ class HybridSystem:
     plot : mapping
         Hints for the CLI's figure (e.g. ``force``, ``velocity``,
         ``displacements``, ``shade_modes``).
+    energy : mapping of str to str
+        Names (variables or definitions) of the ``input`` work, the
+        ``dissipated`` energy and the ``mechanical`` energy, for energy
+        balances (``input = dissipated + change of mechanical``).
     """
 
     name: str
@@ -250,6 +254,7 @@ class HybridSystem:
     title: str = ""
     reference: str = ""
     plot: Mapping[str, object] = field(default_factory=dict)
+    energy: Mapping[str, str] = field(default_factory=dict)
 
     # ------------------------------------------------------------------
     def __post_init__(self):
@@ -263,6 +268,7 @@ class HybridSystem:
         set_(self, "equations", _frozen_map(self.equations, "equations"))
         set_(self, "definitions", _frozen_map(self.definitions, "definitions"))
         set_(self, "plot", MappingProxyType(dict(self.plot)))
+        set_(self, "energy", _frozen_map(self.energy, "energy"))
         set_(
             self,
             "presets",
@@ -406,6 +412,20 @@ class HybridSystem:
             for tr, td in zip(self.transitions, trans, strict=True):
                 if free_symbols(td["guard"]) & qs:
                     raise ModelError(f"{pre}: guard of transition `{tr.name}` depends on a quadrature")
+        for role, n in self.energy.items():
+            if role not in ("input", "dissipated", "mechanical"):
+                raise ModelError(
+                    f"{pre}: energy role `{role}` unknown; allowed: input, dissipated, mechanical"
+                )
+            if n not in vnames and n not in self.outputs:
+                raise ModelError(f"{pre}: energy `{role}` = `{n}` is neither a variable nor an output")
+        for key in ("force", "velocity"):
+            n = self.plot.get(key)
+            if n is not None and n not in vnames and n not in self.outputs:
+                raise ModelError(f"{pre}: plot `{key}` = `{n}` is neither a variable nor an output")
+        for n in self.plot.get("displacements", ()):
+            if n not in vnames and n not in self.outputs:
+                raise ModelError(f"{pre}: plot displacement `{n}` is neither a variable nor an output")
         for o in self.outputs:
             for m in self.modes:
                 if o not in mode_data[m.name]["defs"]:
