@@ -266,8 +266,18 @@ class _Run:
 
     def record(self, t: float, y: np.ndarray, mode: int) -> None:
         self.ts.append(t)
-        self.ys.append(np.array(y, dtype=float))
+        self.ys.append(self.project(self.cs.modes[mode], t, y))
         self.ms.append(mode)
+
+    def project(self, cm: CompiledMode, t: float, y: np.ndarray) -> np.ndarray:
+        """``y`` with the slave variables of ``cm`` re-solved (IDA's interpolant satisfies the
+        algebraic equations only to the integration tolerance)."""
+        if cm.alg_idx.size == 0:
+            return np.array(y, dtype=float)
+        try:
+            return cm.solve_algebraic(t, y)
+        except AlgebraicSolveError as exc:
+            raise _Stop(Status.ALGEBRAIC_FAILED, str(exc)) from None
 
     # ------------------------------------------------------------------
     def enter(self, mode: int, t: float, y: np.ndarray, first_source: str | None):
@@ -276,10 +286,9 @@ class _Run:
         Returns ``(mode, y, yp, disarmed)`` with ``disarmed`` mapping guard
         index to the safe sign reported to IDA while it is disarmed.
         """
-        visited: list[int] = []
+        visited: list[tuple[int, np.ndarray]] = []
         while True:
             cm = self.cs.modes[mode]
-            visited.append(mode)
             try:
                 y = cm.solve_algebraic(t, y)
             except AlgebraicSolveError as exc:
@@ -305,10 +314,15 @@ class _Run:
                         Status.SOLVER_FAILED, f"state became non-finite at t={t!r} in mode `{cm.name}`"
                     )
                 return mode, y, cm.derivatives(t, y), disarmed
+            visited.append((mode, y))
             y_new = self.apply_reset(cm, fire, t, y)
             target = fire.target
-            if target in visited or len(visited) > self.opt.max_chain:
-                path = " -> ".join(self.cs.modes[m].name for m in visited + [target])
+            # A chain may pass a mode twice if the state changed on the way (an inconsistent
+            # initial state relaxes through an instantaneous slip); the same mode with the same
+            # state is a loop.
+            loop = any(m == target and np.allclose(ym, y_new, rtol=1e-13, atol=1e-15) for m, ym in visited)
+            if loop or len(visited) > self.opt.max_chain:
+                path = " -> ".join([self.cs.modes[m].name for m, _ in visited] + [self.cs.modes[target].name])
                 if target == mode:
                     raise _Stop(
                         Status.ZENO,
@@ -450,6 +464,8 @@ class _Run:
 
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]
+        # IDA interpolates slave variables at the root: put them back on their constraint.
+        y_minus = self.project(cm, t, y_minus)
         h = g.fn([t, *y_minus.tolist()])
         y_reset = self.apply_reset(cm, g, t, y_minus)
         if self.include_events:
