@@ -464,9 +464,7 @@ class _Run:
 
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]
-        # IDA interpolates slave variables at the root: put them back on their constraint.
-        y_minus = self.project(cm, t, y_minus)
-        h = g.fn([t, *y_minus.tolist()])
+        t, y_minus, h = self.polish(cm, k, t, y_minus)
         y_reset = self.apply_reset(cm, g, t, y_minus)
         if self.include_events:
             self.record(t, y_minus, cm.index)
@@ -477,6 +475,29 @@ class _Run:
         if self.include_events:
             self.record(t, y, mode)
         return t, y, mode, yp, disarmed
+
+    def polish(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> tuple[float, np.ndarray, float]:
+        """Refine a root located by IDA (whose time tolerance grows with |t|) by Newton steps on
+        the guard along the local flow, ``y(t + dt) = y + y' dt``; slave variables re-solved."""
+        g = cm.guards[k]
+        y = self.project(cm, t, y)  # IDA interpolates slave variables only to the tolerance
+        h = g.fn([t, *y.tolist()])
+        for _ in range(3):
+            yp = cm.derivatives(t, y)
+            grad, ht = cm.guard_gradient(k, t, y)
+            hdot = float(grad @ yp + ht)
+            if hdot == 0.0:
+                break
+            dt = -h / hdot
+            if abs(dt) > 1e-6 * max(1.0, abs(t)):  # not a small correction: keep IDA's root
+                break
+            t_new = t + dt
+            y_new = self.project(cm, t_new, y + yp * dt)
+            h_new = g.fn([t_new, *y_new.tolist()])
+            if not abs(h_new) < abs(h):
+                break
+            t, y, h = t_new, y_new, h_new
+        return t, y, h
 
     def report(self, t: float) -> None:
         if self.progress is None:
