@@ -202,9 +202,7 @@ def limit_amplitude(
         return np.abs((m2 * w2 - c2) / (m2 * w2 * c2)) * margin
 
 
-def _two_mass_eigenfrequencies(
-    m1: float, m2: float, k1: float, k2: float
-) -> tuple[float, float]:
+def _two_mass_eigenfrequencies(m1: float, m2: float, k1: float, k2: float) -> tuple[float, float]:
     """Eigenfrequencies [rad/s] of ground--k1--m1--k2--m2, ascending."""
     # Roots lambda = omega^2 of m1 m2 l^2 - (k1 m2 + (m1 + m2) k2) l + k1 k2 = 0.
     b = k1 * m2 + (m1 + m2) * k2

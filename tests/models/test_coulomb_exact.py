@@ -42,8 +42,14 @@ def _reference_turning_points(m, k, R, x0, n_max=50):
         back_at_rest.terminal = True
         back_at_rest.direction = -s  # v leaves 0 with sign s and returns to it
         sol = solve_ivp(
-            f, (t0, t0 + period), [x, 0.0], method="DOP853", rtol=1e-12, atol=1e-14,
-            events=back_at_rest, dense_output=True,
+            f,
+            (t0, t0 + period),
+            [x, 0.0],
+            method="DOP853",
+            rtol=1e-12,
+            atol=1e-14,
+            events=back_at_rest,
+            dense_output=True,
         )
         t_end = float(sol.t_events[0][0])
         segments.append((t0, t_end, sol.sol))
@@ -108,9 +114,7 @@ def test_rest_after_stop(m, k, R, x0):
     np.testing.assert_array_equal(v, 0.0)
     # Energy: everything lost went into friction, R times the path between turning points.
     omega = math.sqrt(k / m)
-    turning, _ = free_response(
-        m, k, R, x0, np.arange(int(half_cycles(m, k, R, x0)) + 1) * math.pi / omega
-    )
+    turning, _ = free_response(m, k, R, x0, np.arange(int(half_cycles(m, k, R, x0)) + 1) * math.pi / omega)
     path = np.abs(np.diff(turning)).sum()
     assert 0.5 * k * (x0**2 - x_stop**2) == pytest.approx(R * path, rel=1e-12)
 

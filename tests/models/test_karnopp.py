@@ -110,9 +110,7 @@ def test_rhs_slip_keeps_friction_force_constant(model):
         assert d[6] == pytest.approx(sgn * R * vr, rel=1e-11)
         assert d[5] == pytest.approx(p["F"] * math.sin(p["Omega"] * 0.3) * v1, rel=1e-14)
         # Same state but with a smaller (stuck) force: no dissipation, u follows the stick rule.
-        u_stick = u - 0.5 * sgn * R / (c2 + c3) if model == "absorber" else u + 0.5 * sgn * R / (
-            c1 + c3
-        )
+        u_stick = u - 0.5 * sgn * R / (c2 + c3) if model == "absorber" else u + 0.5 * sgn * R / (c1 + c3)
         d = f(0.3, np.array([x1, v1, x2, v2, u_stick, 0.0, 0.0]))
         assert d[6] == 0.0
         assert d[4] == (v2 if model == "absorber" else 0.0)
@@ -131,8 +129,7 @@ def test_mechanical_energy_shapes_and_values():
 
 def test_result_layout():
     t = np.linspace(0.0, PERIOD, 11)
-    res = simulate_karnopp("absorber", ABSORBER, (0.0, PERIOD), Y0_STICK_SLIP["absorber"],
-                           t_eval=t)
+    res = simulate_karnopp("absorber", ABSORBER, (0.0, PERIOD), Y0_STICK_SLIP["absorber"], t_eval=t)
     assert res.t.shape == (11,) and res.y.shape == (11, 5)
     for arr in (res.W, res.D, res.H, res.v_r, res.sticking):
         assert arr.shape == (11,)
