@@ -21,6 +21,7 @@ of a guard value that is zero up to rounding.
 from __future__ import annotations
 
 import math
+import warnings
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 
@@ -444,6 +445,13 @@ class _Run:
                             solver.armed[k] = True
                             del disarmed[k]
                         elif -disarmed[k] * h > noise[k] and (cm.guards[k].direction in (0, -disarmed[k])):
+                            warnings.warn(
+                                f"guard `{cm.guards[k].name}` of mode `{cm.name}` crossed zero at t~{r.t!r} "
+                                "before it could be armed; the switch is taken at the end of that step. "
+                                "Lower `max_step` or `guard_noise` if this matters.",
+                                RuntimeWarning,
+                                stacklevel=2,
+                            )
                             missed = k
                             break
                 fired = r.fired[0] if (r.status == ROOT and r.fired) else missed

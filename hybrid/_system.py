@@ -237,6 +237,21 @@ class HybridSystem:
         Names (variables or definitions) of the ``input`` work, the
         ``dissipated`` energy and the ``mechanical`` energy, for energy
         balances (``input = dissipated + change of mechanical``).
+
+    Examples
+    --------
+    >>> from hybrid import HybridSystem, Mode
+    >>> osc = HybridSystem(
+    ...     name="oscillator", variables=["x", "v"], parameters=["k"],
+    ...     modes=[Mode("free", derivatives={"x": "v", "v": "-k*x"})], transitions=[],
+    ... )
+    >>> osc.variable_names, osc.mode_names
+    (('x', 'v'), ('free',))
+    >>> HybridSystem(name="bad", variables=["x"], parameters=[],
+    ...              modes=[Mode("a", derivatives={"x": "y"})], transitions=[])
+    Traceback (most recent call last):
+    ...
+    hybrid._system.ModelError: model `bad`: mode `a`: derivative of `x`: unknown name `y` in 'y'; known names: t, x, pi
     """
 
     name: str
@@ -277,7 +292,9 @@ class HybridSystem:
         try:
             self._validate()
         except ExpressionError as exc:
-            raise ModelError(f"model `{self.name}`: {exc}") from None
+            msg = str(exc)
+            prefix = f"model `{self.name}`: "
+            raise ModelError(msg if msg.startswith(prefix) else prefix + msg) from None
 
     def _validate(self) -> None:
         pre = f"model `{self.name}`"

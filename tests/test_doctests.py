@@ -1,0 +1,17 @@
+"""The examples in the public docstrings run and print what they claim."""
+
+import doctest
+
+import pytest
+
+import hybrid._simulate
+import hybrid._system
+
+MODULES = [hybrid._simulate, hybrid._system]
+
+
+@pytest.mark.parametrize("module", MODULES, ids=lambda m: m.__name__)
+def test_docstring_examples(module):
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.failed == 0
+    assert result.attempted > 0
