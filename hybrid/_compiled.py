@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._expr import Expr, compile_scalar, diff, neg, num, substitute, taylor_eval
+from ._expr import Expr, compile_scalar, diff, free_symbols, neg, num, substitute, taylor_eval
 from ._system import HybridSystem
 
 __all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "AlgebraicSolveError"]
@@ -137,11 +137,11 @@ class CompiledMode:
     def jacobian(self, t: float, y: np.ndarray, cj: float, out: np.ndarray) -> None:
         """Fill ``out`` with ``dF/dy + cj dF/dy'``."""
         out[:, :] = self.jac_base
-        out += cj * self.cj_mask
         if self.jac_terms:
             v = [t, *y.tolist()]
             for i, j, fn in self.jac_terms:
                 out[i, j] = fn(v)
+        out += cj * self.cj_mask
 
     def dFdy(self, t: float, y: np.ndarray) -> np.ndarray:
         """``dF/dy`` (rows: -df/dy for differential, dg/dy for slave variables)."""
@@ -273,6 +273,14 @@ class CompiledSystem:
         self.period = system.period_value(self.params)
         self.names = system.variable_names
         self.quadrature_idx = np.array([self.names.index(q) for q in system.quadratures], dtype=int)
+
+    def depends_on_time(self) -> bool:
+        """True if an equation or guard of any mode depends explicitly on ``t``."""
+        for cm in self.modes:
+            exprs = list(cm.f_expr.values()) + list(cm.g_expr.values()) + [g.expr for g in cm.guards]
+            if any("t" in free_symbols(e) for e in exprs):
+                return True
+        return False
 
     def mode_id(self, name: str) -> int:
         if name not in self.mode_index:

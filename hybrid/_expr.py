@@ -87,7 +87,7 @@ def _is_num(e: Expr, value: float | None = None) -> bool:
 # Smart constructors: fold constants and drop neutral elements so that derived
 # Jacobians stay small and mostly constant.
 def add(a: Expr, b: Expr) -> Expr:
-    if _is_num(a) and _is_num(b):
+    if _is_num(a) and _is_num(b) and math.isfinite(a.args[0] + b.args[0]):
         return num(a.args[0] + b.args[0])
     if _is_num(a, 0.0):
         return b
@@ -97,7 +97,7 @@ def add(a: Expr, b: Expr) -> Expr:
 
 
 def sub(a: Expr, b: Expr) -> Expr:
-    if _is_num(a) and _is_num(b):
+    if _is_num(a) and _is_num(b) and math.isfinite(a.args[0] - b.args[0]):
         return num(a.args[0] - b.args[0])
     if _is_num(b, 0.0):
         return a
@@ -109,7 +109,7 @@ def sub(a: Expr, b: Expr) -> Expr:
 
 
 def mul(a: Expr, b: Expr) -> Expr:
-    if _is_num(a) and _is_num(b):
+    if _is_num(a) and _is_num(b) and math.isfinite(a.args[0] * b.args[0]):
         return num(a.args[0] * b.args[0])
     if _is_num(a, 0.0) or _is_num(b, 0.0):
         return ZERO
@@ -126,7 +126,7 @@ def mul(a: Expr, b: Expr) -> Expr:
 
 def div(a: Expr, b: Expr) -> Expr:
     if _is_num(b) and b.args[0] != 0.0:
-        if _is_num(a):
+        if _is_num(a) and math.isfinite(a.args[0] / b.args[0]):
             return num(a.args[0] / b.args[0])
         if b.args[0] == 1.0:
             return a
@@ -150,9 +150,12 @@ def power(a: Expr, b: Expr) -> Expr:
         return a
     if _is_num(a) and _is_num(b):
         try:
-            return num(a.args[0] ** b.args[0])
+            value = a.args[0] ** b.args[0]
         except (OverflowError, ZeroDivisionError):
-            pass
+            value = None
+        # a negative base to a fractional power is complex in Python: never fold it
+        if isinstance(value, float) and math.isfinite(value):
+            return num(value)
     return Expr("pow", (a, b))
 
 
@@ -270,7 +273,9 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
 
     def walk(node: ast.AST, depth: int) -> Expr:
         if depth > MAX_DEPTH:
-            raise ExpressionError(f"{where}: expression nested deeper than {MAX_DEPTH} levels")
+            raise ExpressionError(
+                f"{where}: expression nested deeper than {MAX_DEPTH} levels (a long sum counts one level per term)"
+            )
         if isinstance(node, ast.Constant):
             value = node.value
             if isinstance(value, bool) or not isinstance(value, int | float):
@@ -432,12 +437,21 @@ def diff(e: Expr, name: str) -> Expr:
 # ----------------------------------------------------------------------------
 # Compilation to closures over a flat list of values
 # ----------------------------------------------------------------------------
+def _real_pow(a: float, b: float) -> float:
+    value = a**b
+    if isinstance(value, complex):
+        raise ArithmeticError(
+            f"negative base {a!r} raised to the non-integer power {b!r} (not a real number)"
+        )
+    return value
+
+
 _PYOP = {
     "add": operator.add,
     "sub": operator.sub,
     "mul": operator.mul,
     "div": operator.truediv,
-    "pow": operator.pow,
+    "pow": _real_pow,
 }
 
 
@@ -494,6 +508,9 @@ def _compile(e: Expr, slots: Mapping[str, int]) -> Callable:
             return lambda v: fa(v) ** 2
         return lambda v: pyop(fa(v), cb)
     if a.op == "sym" and b.op == "sym":
+        for name in (a.args[0], b.args[0]):
+            if name not in slots:
+                raise ExpressionError(f"symbol `{name}` has no value at run time")
         ia, ib = slots[a.args[0]], slots[b.args[0]]
         return lambda v: pyop(v[ia], v[ib])
     fa = _compile(a, slots)
@@ -566,6 +583,19 @@ def _jsqrt(a: np.ndarray) -> np.ndarray:
     for k in range(1, a.size):
         r[k] = (a[k] - np.dot(r[1:k], r[k - 1 : 0 : -1])) / (2.0 * r[0])
     return r
+
+
+def _jpow_int(a: np.ndarray, n: int) -> np.ndarray:
+    """Series of a**n for an integer n (binary powering; any sign of a[0])."""
+    out = _unit(a)
+    base = a
+    k = abs(n)
+    while k:
+        if k & 1:
+            out = _jmul(out, base)
+        base = _jmul(base, base)
+        k >>= 1
+    return _jdiv(_unit(a), out) if n < 0 else out
 
 
 def _lead_sign(a: np.ndarray) -> float:
@@ -655,10 +685,8 @@ def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
         elif op == "pow":
             a, b = node.args
             ja = rec(a)
-            if b.op == "num" and float(b.args[0]).is_integer() and 0 <= b.args[0] <= 16:
-                out = const(1.0)
-                for _ in range(int(b.args[0])):
-                    out = _jmul(out, ja)
+            if b.op == "num" and float(b.args[0]).is_integer() and abs(b.args[0]) <= 1024:
+                out = _jpow_int(ja, int(b.args[0]))
             elif b.op == "num" and b.args[0] == 0.5:
                 out = _jsqrt(ja)
             else:

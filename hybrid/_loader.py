@@ -163,6 +163,10 @@ def system_from_dict(data: Mapping) -> HybridSystem:
                 reset=spec.get("reset", {}),
             )
         )
+    for key in ("quadratures", "outputs"):
+        value = model.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ModelError(f"[model] `{key}` must be a list of names, got {value!r}")
     presets = {}
     for pname, values in data.get("presets", {}).items():
         if not isinstance(values, Mapping):

@@ -181,6 +181,14 @@ def simulate(
     samples = _sample_times(t_eval, samples_per_period, cs.period, t0, t1)
     if include_events is None:
         include_events = samples is None
+    if cs.period is None and options.max_step is None and cs.depends_on_time():
+        warnings.warn(
+            f"model `{system.name}` depends on t but declares no forcing period; the step bound is "
+            "span/50, which can step over a periodic forcing: set SolverOptions(max_step=...) or the "
+            "model's `period`",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
     return run.execute(y0, cs.mode_id(mode0), throw)
 
@@ -245,15 +253,23 @@ class _Run:
         self.recent = deque(maxlen=options.zeno_count)
         self.nfev = self.njev = self.n_steps = 0
         self._next_progress = 0.0
+        self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
+        self.unresolved = 0  # consecutive switches whose guard never left its noise band
 
     # ------------------------------------------------------------------
     def solver(self, mode: int) -> ModeSolver:
         s = self.solvers.get(mode)
         if s is None:
+            cm = self.cs.modes[mode]
+            # Slave variables are re-solved at every sample and switch; in IDA's error test their
+            # absolute tolerance is floored at rtol: a far tighter one on a slave variable crossing
+            # zero makes IDA stall in step-size cycles (tests/hybrid: nonlinear_dae).
+            atol = self.atol.copy()
+            atol[cm.alg_idx] = np.maximum(atol[cm.alg_idx], self.opt.rtol)
             s = ModeSolver(
-                self.cs.modes[mode],
+                cm,
                 rtol=self.opt.rtol,
-                atol=self.atol,
+                atol=atol,
                 max_step=self.max_step,
                 max_num_steps=self.opt.max_num_steps,
             )
@@ -288,12 +304,16 @@ class _Run:
         index to the safe sign reported to IDA while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
+        pending = len(self.events) - 1 if first_source is not None else None
         while True:
             cm = self.cs.modes[mode]
             try:
                 y = cm.solve_algebraic(t, y)
             except AlgebraicSolveError as exc:
                 raise _Stop(Status.ALGEBRAIC_FAILED, str(exc)) from None
+            if pending is not None and pending >= 0:
+                self.set_plus(pending, y)
+            self.current = (t, y, mode)
             vals = cm.guard_values(t, y)
             fire, disarmed = None, {}
             for g in cm.guards:
@@ -336,6 +356,7 @@ class _Run:
                     "check the guards' directions and the sliding (stick) mode of the model",
                 )
             self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True)
+            pending = len(self.events) - 1
             mode, y = target, y_new
 
     def apply_reset(self, cm: CompiledMode, g, t: float, y: np.ndarray) -> np.ndarray:
@@ -349,6 +370,7 @@ class _Run:
 
     def log(self, t, cm, g, h, y_minus, y_plus, target, chained) -> None:
         tgt = self.cs.modes[target]
+        self.current = (t, np.array(y_minus), cm.index)
         # x_plus is completed (slave variables re-solved) lazily: store the reset state.
         self.events.append(
             TransitionRecord(
@@ -369,10 +391,10 @@ class _Run:
                 "in a vanishing time",
             )
 
-    def fix_plus(self, first_event: int, y_plus: np.ndarray) -> None:
-        """Store the consistent post-switch state in the records made since ``first_event``."""
-        ev = self.events[-1]
-        self.events[-1] = TransitionRecord(
+    def set_plus(self, index: int, y_plus: np.ndarray) -> None:
+        """Store the consistent post-switch state (slave variables solved in the target mode)."""
+        ev = self.events[index]
+        self.events[index] = TransitionRecord(
             ev.t, ev.source, ev.target, ev.guard, ev.guard_value, ev.x_minus, np.array(y_plus), ev.chained
         )
 
@@ -382,10 +404,7 @@ class _Run:
         start_mode = self.cs.modes[mode0].name
         status, message = Status.COMPLETED, "reached the end of the time span"
         try:
-            n_before = len(self.events)
             mode, y, yp, disarmed = self.enter(mode, t, y, None)
-            if len(self.events) > n_before:
-                self.fix_plus(n_before, y)
             start_mode = self.cs.modes[mode0].name
             self.emit_samples_upto(t, lambda s: (y, mode), inclusive=True)
             if self.record_steps:
@@ -394,6 +413,7 @@ class _Run:
                 t, y, mode, yp, disarmed = self.segment(t, y, yp, mode, disarmed)
         except _Stop as stop:
             status, message = stop.status, stop.message
+            t, y, mode = self.current
         return self.finish(t, y, mode, status, message, start_mode, throw)
 
     def emit_samples_upto(self, t: float, state_at, inclusive: bool) -> None:
@@ -427,6 +447,10 @@ class _Run:
                     tout = self.t1
                 r = solver.step(tout, self.t1, one_step=one_step)
                 self.n_steps += 1
+                if r.status == -1 and r.t > self.current[0]:
+                    # max_num_steps reached within one call but time advanced: go on from there
+                    self.current = (r.t, r.y, mode)
+                    continue
                 if r.status < 0:
                     raise _Stop(
                         Status.SOLVER_FAILED,
@@ -454,7 +478,17 @@ class _Run:
                             )
                             missed = k
                             break
+                self.current = (r.t, r.y, mode)
                 fired = r.fired[0] if (r.status == ROOT and r.fired) else missed
+                if fired is not None:
+                    self.unresolved = self.unresolved + 1 if missed is not None else 0
+                    if self.unresolved >= 3:
+                        raise _Stop(
+                            Status.ZENO,
+                            f"Zeno point near t={r.t!r}: {self.unresolved} consecutive switches by "
+                            f"`{cm.guards[fired].name}` happen within the guard's noise band (below the "
+                            "resolution of the tolerances); the switches accumulate here",
+                        )
                 if fired is not None:
                     self.emit_samples_upto(r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False)
                     return self.switch(cm, fired, r.t, r.y)
@@ -477,9 +511,7 @@ class _Run:
         if self.include_events:
             self.record(t, y_minus, cm.index)
         self.log(t, cm, g, h, y_minus, y_reset, g.target, chained=False)
-        n_before = len(self.events)
         mode, y, yp, disarmed = self.enter(g.target, t, y_reset, cm.name)
-        self.fix_plus(n_before, y)
         if self.include_events:
             self.record(t, y, mode)
         return t, y, mode, yp, disarmed

@@ -97,7 +97,9 @@ class Parameter:
     def check(self, value: object) -> float:
         """Return ``value`` as a float, or raise a ValueError naming the parameter."""
         what = f"parameter `{self.name}`" + (f" ({self.description})" if self.description else "")
-        if isinstance(value, bool) or not isinstance(value, int | float):
+        if isinstance(value, bool):
+            raise ValueError(f"{what} must be a real number, got {value!r}")
+        if not isinstance(value, int | float):
             try:
                 value = float(value)  # numpy scalars, strings of numbers from a CLI
             except (TypeError, ValueError):
@@ -324,10 +326,11 @@ class HybridSystem:
         for n in self.definitions:
             if not _NAME.match(n) or n in _RESERVED:
                 raise ModelError(f"{pre}: invalid definition name `{n}`")
-        mnames = [m.name for m in self.modes]
         for m in self.modes:
             if not isinstance(m, Mode):
                 raise ModelError(f"{pre}: modes must be Mode objects, got {m!r}")
+        mnames = [m.name for m in self.modes]
+        for m in self.modes:
             if not _MODE_NAME.match(m.name):
                 raise ModelError(f"{pre}: invalid mode name {m.name!r}")
         if len(set(mnames)) != len(mnames):
@@ -478,7 +481,7 @@ class HybridSystem:
             if state.get(n) == 2:
                 return
             if state.get(n) == 1:
-                raise ModelError(f"{what}s form a cycle: {' -> '.join(path + [n])}")
+                raise ExpressionError(f"{what}s form a cycle: {' -> '.join(path + [n])}")
             state[n] = 1
             for d in free_symbols(raw[n]):
                 if d in raw:
