@@ -19,7 +19,8 @@ def _header(traj: Trajectory) -> list[str]:
     units = {v.name: v.unit for v in system.variables}
     cols = ["t [s]", "mode"]
     cols += [f"{n} [{units[n]}]" if units.get(n) else n for n in traj.names]
-    cols += list(traj.outputs)
+    out_units = system.plot.get("units", {})
+    cols += [f"{o} [{out_units[o]}]" if out_units.get(o) else o for o in traj.outputs]
     return cols
 
 

@@ -54,11 +54,12 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
 
     fig = Figure(figsize=(11, 7.5), layout="constrained")
     FigureCanvasAgg(fig)
+    gs = fig.add_gridspec(2, 2)
+    ax_w = fig.add_subplot(gs[1, 0])  # displacements in the window
+    ax_x = fig.add_subplot(gs[1, 1])  # displacement history of the whole run
     if force:
-        gs = fig.add_gridspec(2, 2)
         ax_t = fig.add_subplot(gs[0, 0])
         ax_v = fig.add_subplot(gs[0, 1])
-        ax_x = fig.add_subplot(gs[1, :])
         H = traj[force]
         ax_t.plot(t[win], H[win], color="C0", lw=1.2)
         ax_t.set_xlabel("t [s]")
@@ -70,7 +71,7 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
             ax_v.plot(traj[vel][win], H[win], color="C0", lw=1.2)
             ax_v.set_xlabel(_label(traj, vel))
             ax_v.set_ylabel(_label(traj, force))
-            ax_v.set_title(f"{force} against {vel}")
+            ax_v.set_title(f"{force} against {vel} (same window; stick: {vel} = 0)")
             ax_v.axvline(0.0, color="0.6", lw=0.6)
         for ax in (ax_t, ax_v):
             ax.grid(alpha=0.3)
@@ -83,14 +84,17 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
                 shaded_any = True
         if shaded_any:
             ax_t.legend(loc="upper right", fontsize=8)
-    else:
-        ax_x = fig.add_subplot(1, 1, 1)
-    for k, name in enumerate(disp):
-        ax_x.plot(t, traj[name], lw=0.8, color=f"C{k}", label=_label(traj, name))
-    ax_x.set_xlabel("t [s]")
-    ax_x.set_ylabel("displacement")
-    ax_x.grid(alpha=0.3)
-    ax_x.legend(loc="upper left", fontsize=8)
+    # draw the first displacement last so that it stays visible on top of larger ones
+    for k, name in reversed(list(enumerate(disp))):
+        ax_w.plot(t[win], traj[name][win], lw=1.0, color=f"C{k}", label=_label(traj, name))
+        ax_x.plot(t, traj[name], lw=0.6, color=f"C{k}", label=_label(traj, name))
+    ax_w.set_title("displacements" + (f" (last {last_periods:g} periods)" if period else ""))
+    ax_x.set_title("displacement history (whole run)")
+    for ax in (ax_w, ax_x):
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("displacement")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=8)
     params = ", ".join(f"{k}={v:g}" for k, v in traj.params.items())
     fig.suptitle(f"{system.title or system.name}\n{params}", fontsize=10)
     path = Path(path)

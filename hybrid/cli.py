@@ -193,17 +193,24 @@ def cmd_simulate(args) -> int:
         {
             "preset": preset,
             "omega": params.get("Omega"),
-            "periods": (t_end / period) if period else None,
+            "periods": round(t_end / period, 9) if period else None,
             "wall_time_s": wall,
             "files": [str(f) for f in files],
         }
     )
     summary_path = out / "summary.json"
+    summary["files"].append(str(summary_path))
     summary_path.write_text(to_json(summary) + "\n")
     if args.json:
         print(to_json(summary))
     for f in files + [summary_path]:
         _info(f"wrote {f}")
+    at_start = [ev for ev in traj.events if ev.t == traj.t_start]
+    if at_start:
+        _info(
+            f"note: the initial state is not admissible in mode `{at_start[0].source}`; at t = {traj.t_start:g} "
+            + ", then ".join(f"{ev.source} -> {ev.target} ({ev.guard})" for ev in at_start)
+        )
     if not traj.success:
         _info(f"hybrid: simulation stopped early: {traj.message}")
         return 1
