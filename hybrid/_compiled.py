@@ -80,7 +80,6 @@ class CompiledMode:
         rows = [(i, self.f_expr[i], -1.0) for i in self.diff_idx] + [
             (i, self.g_expr[i], 1.0) for i in self.alg_idx
         ]
-        self._row_expr = {int(i): (e, s) for i, e, s in rows}
         for i, e, sgn in rows:
             for j, nm in enumerate(names):
                 d = diff(e, nm)
@@ -216,10 +215,6 @@ class CompiledMode:
         grad = np.array([0.0 if d is None else d(v) for d in g.grad])
         return grad, g.grad_t(v)
 
-    def output_values(self, t: float, y: np.ndarray) -> dict[str, float]:
-        v = [t, *np.asarray(y, dtype=float).tolist()]
-        return {k: fn(v) for k, fn in self.outputs.items()}
-
     # ------------------------------------------------------------------
     def taylor(self, t: float, y: np.ndarray, order: int) -> np.ndarray:
         """Taylor coefficients of this mode's flow through ``(t, y)``.
@@ -272,7 +267,6 @@ class CompiledSystem:
         self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
         self.period = system.period_value(self.params)
         self.names = system.variable_names
-        self.quadrature_idx = np.array([self.names.index(q) for q in system.quadratures], dtype=int)
 
     def depends_on_time(self) -> bool:
         """True if an equation or guard of any mode depends explicitly on ``t``."""

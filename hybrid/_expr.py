@@ -598,7 +598,7 @@ def _jpow_int(a: np.ndarray, n: int) -> np.ndarray:
     return _jdiv(_unit(a), out) if n < 0 else out
 
 
-def _lead_sign(a: np.ndarray) -> float:
+def _first_nonzero_sign(a: np.ndarray) -> float:
     for value in a:
         if value != 0.0:
             return 1.0 if value > 0 else -1.0
@@ -629,10 +629,10 @@ def _jcall(name: str, a: np.ndarray) -> np.ndarray:
     if name == "atan":
         return _jintegrate_rate(a, _jdiv(_unit(a), _unit(a) + _jmul(a, a)), math.atan(a[0]))
     if name == "abs":
-        return _lead_sign(a) * a
+        return _first_nonzero_sign(a) * a
     if name == "sign":
         out = np.zeros_like(a)
-        out[0] = _lead_sign(a)
+        out[0] = _first_nonzero_sign(a)
         return out
     raise KeyError(name)  # pragma: no cover
 

@@ -95,6 +95,8 @@ def load_system(path: str | Path) -> HybridSystem:
         names the file and the item.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ModelError(f"model file {str(path)!r} is a directory")
     if not path.is_file():
         raise ModelError(f"model file {str(path)!r} does not exist")
     try:
@@ -122,10 +124,28 @@ def _check_keys(table: Mapping, allowed: set[str], where: str) -> None:
 def system_from_dict(data: Mapping) -> HybridSystem:
     """Build a :class:`HybridSystem` from the parsed content of a model file."""
     _check_keys(data, _TOP, "model file")
+    for key in _TOP - {"transitions"}:
+        if key in data and not isinstance(data[key], Mapping):
+            raise ModelError(f"[{key}] must be a table, got {type(data[key]).__name__} {data[key]!r}")
+    if "transitions" in data and not (
+        isinstance(data["transitions"], list) and all(isinstance(t, Mapping) for t in data["transitions"])
+    ):
+        raise ModelError("`transitions` must be an array of tables ([[transitions]])")
     model = data.get("model", {})
     _check_keys(model, _MODEL, "[model]")
     if "name" not in model:
         raise ModelError("[model] needs a `name`")
+    for key in ("name", "title", "reference", "period", "initial_mode"):
+        if key in model and not isinstance(model[key], str):
+            raise ModelError(f"[model] `{key}` must be a string, got {model[key]!r}")
+    plot = data.get("plot", {})
+    for key in ("displacements", "shade_modes"):
+        value = plot.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ModelError(f"[plot] `{key}` must be a list of names, got {value!r}")
+    for key in ("units",):
+        if key in plot and not isinstance(plot[key], Mapping):
+            raise ModelError(f"[plot] `{key}` must be a table of names to units")
     variables = []
     for name, spec in data.get("variables", {}).items():
         _check_keys(spec, _VAR, f"[variables.{name}]")

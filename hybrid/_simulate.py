@@ -28,12 +28,14 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from ._compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
-from ._dae import ROOT, TSTOP, ModeSolver
+from ._dae import ROOT, TSTOP, ModeSolver, StepResult
 from ._options import SolverOptions
 from ._system import HybridSystem
 from ._trajectory import Status, Trajectory, TransitionRecord
 
 __all__ = ["simulate", "initial_state", "SimulationError"]
+
+MAX_SAMPLES = 10_000_000
 
 
 class SimulationError(RuntimeError):
@@ -201,7 +203,12 @@ def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | None:
             raise ValueError(f"`samples_per_period` must be an integer >= 1, got {spp!r}")
         if period is None:
             raise ValueError("`samples_per_period` needs a model with a forcing period")
-        n = int(math.floor((t1 - t0) / period * spp + 1e-9))
+        n = int(math.floor(min((t1 - t0) / period * spp, 1e12) + 1e-9))
+        if n > MAX_SAMPLES:
+            raise ValueError(
+                f"{(t1 - t0) / period:.6g} periods at `samples_per_period` = {spp} make {n} samples; "
+                f"at most {MAX_SAMPLES} are allowed: shorten the run or sample less"
+            )
         ts = t0 + np.arange(n + 1) * (period / spp)
         ts = ts[ts <= t1]
         if ts[-1] < t1:
@@ -210,6 +217,8 @@ def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | None:
     if t_eval is None:
         return None
     ts = np.asarray(t_eval, dtype=float).ravel()
+    if ts.size > MAX_SAMPLES:
+        raise ValueError(f"`t_eval` has {ts.size} times; at most {MAX_SAMPLES} are allowed")
     if ts.size == 0 or not np.all(np.isfinite(ts)):
         raise ValueError("`t_eval` must be a non-empty array of finite times")
     if np.any(np.diff(ts) < 0) or ts[0] < t0 or ts[-1] > t1:
@@ -297,14 +306,14 @@ class _Run:
             raise _Stop(Status.ALGEBRAIC_FAILED, str(exc)) from None
 
     # ------------------------------------------------------------------
-    def enter(self, mode: int, t: float, y: np.ndarray, first_source: str | None):
+    def enter(self, mode: int, t: float, y: np.ndarray, after_switch: bool):
         """Consistent state in ``mode`` at ``t``, following switches the vector fields force.
 
         Returns ``(mode, y, yp, disarmed)`` with ``disarmed`` mapping guard
         index to the safe sign reported to IDA while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
-        pending = len(self.events) - 1 if first_source is not None else None
+        pending = len(self.events) - 1 if after_switch else None
         while True:
             cm = self.cs.modes[mode]
             try:
@@ -336,7 +345,7 @@ class _Run:
                     )
                 return mode, y, cm.derivatives(t, y), disarmed
             visited.append((mode, y))
-            y_new = self.apply_reset(cm, fire, t, y)
+            y_new = self.apply_reset(fire, t, y)
             target = fire.target
             # A chain may pass a mode twice if the state changed on the way (an inconsistent
             # initial state relaxes through an instantaneous slip); the same mode with the same
@@ -359,7 +368,7 @@ class _Run:
             pending = len(self.events) - 1
             mode, y = target, y_new
 
-    def apply_reset(self, cm: CompiledMode, g, t: float, y: np.ndarray) -> np.ndarray:
+    def apply_reset(self, g, t: float, y: np.ndarray) -> np.ndarray:
         if not g.reset:
             return np.array(y)
         v = [t, *y.tolist()]
@@ -372,17 +381,18 @@ class _Run:
         tgt = self.cs.modes[target]
         self.current = (t, np.array(y_minus), cm.index)
         # x_plus is completed (slave variables re-solved) lazily: store the reset state.
+        if len(self.events) >= self.max_transitions:
+            raise _Stop(
+                Status.MAX_TRANSITIONS,
+                f"stopped after {self.max_transitions} transitions, at t={t!r} before `{g.name}`; "
+                "raise `max_transitions` to go on",
+            )
         self.events.append(
             TransitionRecord(
                 t, cm.name, tgt.name, g.name, float(h), np.array(y_minus), np.array(y_plus), chained
             )
         )
         self.recent.append(t)
-        if len(self.events) > self.max_transitions:
-            raise _Stop(
-                Status.MAX_TRANSITIONS,
-                f"stopped after {self.max_transitions} transitions at t={t!r}; raise `max_transitions` to go on",
-            )
         if len(self.recent) == self.recent.maxlen and self.recent[-1] - self.recent[0] <= self.zeno_window:
             raise _Stop(
                 Status.ZENO,
@@ -404,8 +414,7 @@ class _Run:
         start_mode = self.cs.modes[mode0].name
         status, message = Status.COMPLETED, "reached the end of the time span"
         try:
-            mode, y, yp, disarmed = self.enter(mode, t, y, None)
-            start_mode = self.cs.modes[mode0].name
+            mode, y, yp, disarmed = self.enter(mode, t, y, after_switch=False)
             self.emit_samples_upto(t, lambda s: (y, mode), inclusive=True)
             if self.record_steps:
                 self.record(t, y, mode)
@@ -414,6 +423,15 @@ class _Run:
         except _Stop as stop:
             status, message = stop.status, stop.message
             t, y, mode = self.current
+        except (ArithmeticError, ValueError) as exc:
+            # raised while evaluating the model's expressions (division by zero, log of a
+            # negative number, overflow, a negative base to a fractional power, ...)
+            t, y, mode = self.current
+            status = Status.EVALUATION_FAILED
+            message = (
+                f"evaluating the equations of mode `{self.cs.modes[mode].name}` near t={t!r} failed: "
+                f"{type(exc).__name__}: {exc}"
+            )
         return self.finish(t, y, mode, status, message, start_mode, throw)
 
     def emit_samples_upto(self, t: float, state_at, inclusive: bool) -> None:
@@ -445,6 +463,7 @@ class _Run:
                     tout = float(self.samples[self.next_sample])
                 else:
                     tout = self.t1
+                t_prev = self.current[0]
                 r = solver.step(tout, self.t1, one_step=one_step)
                 self.n_steps += 1
                 if r.status == -1 and r.t > self.current[0]:
@@ -471,7 +490,7 @@ class _Run:
                         elif -disarmed[k] * h > noise[k] and (cm.guards[k].direction in (0, -disarmed[k])):
                             warnings.warn(
                                 f"guard `{cm.guards[k].name}` of mode `{cm.name}` crossed zero at t~{r.t!r} "
-                                "before it could be armed; the switch is taken at the end of that step. "
+                                "before it could be armed; the crossing is located on the step's interpolant. "
                                 "Lower `max_step` or `guard_noise` if this matters.",
                                 RuntimeWarning,
                                 stacklevel=2,
@@ -479,6 +498,8 @@ class _Run:
                             missed = k
                             break
                 self.current = (r.t, r.y, mode)
+                if missed is not None:
+                    r = self.locate_missed(solver, cm, missed, t_prev, r)
                 fired = r.fired[0] if (r.status == ROOT and r.fired) else missed
                 if fired is not None:
                     self.unresolved = self.unresolved + 1 if missed is not None else 0
@@ -489,7 +510,6 @@ class _Run:
                             f"`{cm.guards[fired].name}` happen within the guard's noise band (below the "
                             "resolution of the tolerances); the switches accumulate here",
                         )
-                if fired is not None:
                     self.emit_samples_upto(r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False)
                     return self.switch(cm, fired, r.t, r.y)
                 self.emit_samples_upto(
@@ -507,14 +527,38 @@ class _Run:
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]
         t, y_minus, h = self.polish(cm, k, t, y_minus)
-        y_reset = self.apply_reset(cm, g, t, y_minus)
+        y_reset = self.apply_reset(g, t, y_minus)
         if self.include_events:
             self.record(t, y_minus, cm.index)
         self.log(t, cm, g, h, y_minus, y_reset, g.target, chained=False)
-        mode, y, yp, disarmed = self.enter(g.target, t, y_reset, cm.name)
+        mode, y, yp, disarmed = self.enter(g.target, t, y_reset, after_switch=True)
         if self.include_events:
             self.record(t, y, mode)
         return t, y, mode, yp, disarmed
+
+    def locate_missed(self, solver: ModeSolver, cm: CompiledMode, k: int, t_prev: float, r):
+        """Locate on the last step a crossing of guard ``k`` seen only at the step's end."""
+        fn = cm.guards[k].fn
+
+        def h(tau: float) -> float:
+            return fn([tau, *solver.interpolate(tau)[0].tolist()])
+
+        h_end = fn([r.t, *r.y.tolist()])
+        if not (t_prev < r.t and h(t_prev) * h_end < 0):
+            return r
+        lo, hi = t_prev, r.t
+        h_lo = h(lo)
+        for _ in range(200):  # bisection to rounding of t
+            mid = 0.5 * (lo + hi)
+            if not lo < mid < hi:
+                break
+            h_mid = h(mid)
+            if h_mid * h_lo > 0:
+                lo, h_lo = mid, h_mid
+            else:
+                hi = mid
+        y, yp = solver.interpolate(hi)
+        return StepResult(r.status, hi, y, yp, r.fired, r.message)
 
     def polish(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> tuple[float, np.ndarray, float]:
         """Refine a root located by IDA (whose time tolerance grows with |t|) by Newton steps on

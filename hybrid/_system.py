@@ -179,7 +179,11 @@ class Transition:
         if not self.name:
             object.__setattr__(self, "name", f"{self.source}->{self.target}")
         object.__setattr__(self, "reset", _frozen_map(self.reset, f"transition `{self.name}` reset"))
-        if isinstance(self.direction, bool) or self.direction not in (-1, 0, 1):
+        if (
+            isinstance(self.direction, bool)
+            or not isinstance(self.direction, int)
+            or self.direction not in (-1, 0, 1)
+        ):
             raise ModelError(
                 f"transition `{self.name}`: direction must be -1, 0 or 1, got {self.direction!r}"
             )
@@ -414,6 +418,11 @@ class HybridSystem:
             md = mode_data[tr.source]
             known = base_known | set(md["defs"])
             g = md["expand"](parse(tr.guard, known, f"{pre}: guard of transition `{tr.name}`"))
+            if not (free_symbols(g) - set(pnames)):
+                raise ModelError(
+                    f"{pre}: guard of transition `{tr.name}` ({tr.guard!r}) depends on no variable and not on t: "
+                    "it can never cross zero"
+                )
             resets = {}
             for n, r in tr.reset.items():
                 if n not in vnames:
@@ -455,7 +464,14 @@ class HybridSystem:
             self._set_cache("period", pe)
         else:
             self._set_cache("period", None)
+        pmap = {p.name: p for p in self.parameters}
         for pname, values in self.presets.items():
+            for k, val in values.items():
+                if k in pmap:
+                    try:
+                        pmap[k].check(val)
+                    except ValueError as exc:
+                        raise ModelError(f"{pre}: preset `{pname}`: {exc}") from None
             for k in values:
                 if k not in pnames:
                     raise ModelError(
@@ -574,7 +590,12 @@ class HybridSystem:
         pe = self._cache["period"]
         if pe is None:
             return None
-        value = float(compile_scalar(pe, {}, params)(()))
+        try:
+            value = float(compile_scalar(pe, {}, params)(()))
+        except (ArithmeticError, ValueError) as exc:
+            raise ValueError(
+                f"model `{self.name}`: forcing period {self.period!r} cannot be evaluated: {exc}"
+            ) from None
         if not (math.isfinite(value) and value > 0):
             raise ValueError(
                 f"model `{self.name}`: forcing period {self.period!r} evaluates to {value!r}; it must be finite and > 0"

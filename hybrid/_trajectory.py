@@ -20,6 +20,7 @@ class Status(enum.IntEnum):
     NO_ADMISSIBLE_MODE = -3
     ALGEBRAIC_FAILED = -4
     MAX_TRANSITIONS = -5
+    EVALUATION_FAILED = -6
 
 
 @dataclass(frozen=True)

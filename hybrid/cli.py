@@ -40,10 +40,9 @@ def builtin_models() -> dict[str, object]:
 
 def resolve_model(name: str) -> HybridSystem:
     """A built-in model by name, or a model file by path."""
-    path = Path(name)
-    if name.endswith(".toml") or path.is_file():
-        return load_system(path)
     eps = builtin_models()
+    if name.endswith(".toml") or "/" in name or (name not in eps and Path(name).exists()):
+        return load_system(Path(name))
     if name not in eps:
         have = ", ".join(sorted(eps)) or "none installed"
         raise UsageError(
