@@ -246,9 +246,15 @@ class CompiledMode:
                 X[a, k + 1] = -np.linalg.solve(Jzz, r)
         return X
 
-    def guard_series(self, k: int, t: float, y: np.ndarray, order: int) -> np.ndarray:
-        """Taylor coefficients of guard ``k`` along this mode's flow from ``(t, y)``."""
-        X = self.taylor(t, y, order)
+    def guard_series(
+        self, k: int, t: float, y: np.ndarray, order: int, X: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Taylor coefficients of guard ``k`` along this mode's flow from ``(t, y)``.
+
+        ``X`` may pass the flow's series from :meth:`taylor` (same point and order) to reuse it.
+        """
+        if X is None:
+            X = self.taylor(t, y, order)
         tj = np.zeros(order + 1)
         tj[0] = t
         if order >= 1:

@@ -325,12 +325,16 @@ class _Run:
             self.current = (t, y, mode)
             vals = cm.guard_values(t, y)
             fire, disarmed = None, {}
+            flow_series = None  # the flow's Taylor series at (t, y), computed once if a guard needs it
             for g in cm.guards:
                 h = vals[g.index]
                 d = g.direction
                 eta = self.noise(cm, g.index, t, y)
                 if abs(h) <= eta:
-                    s = lead_sign(cm.guard_series(g.index, t, y, self.opt.taylor_order), eta)
+                    if flow_series is None:
+                        flow_series = cm.taylor(t, y, self.opt.taylor_order)
+                    series = cm.guard_series(g.index, t, y, self.opt.taylor_order, flow_series)
+                    s = lead_sign(series, eta)
                     if d != 0 and s == d:
                         fire = g
                         break

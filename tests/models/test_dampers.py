@@ -138,3 +138,14 @@ def test_from_rest_the_absorber_first_slips_only_after_the_response_has_grown():
     before = tr.t < first.t
     assert np.max(np.abs(tr["H"][before])) < p["R"]
     assert 90 * T < first.t < 110 * T  # notes/nonsmooth.md: about 100 forcing periods
+
+
+def test_presets_are_the_papers_parameter_sets():
+    # Section 3 and the captions of Figs. 3-7, 9, 11, 13 (the one place these numbers are written in tests).
+    standard = dict(m1=1.0, m2=0.1, c1=1.0, c2=0.1, c3=10.0, R=0.5, F=0.01, Omega=0.854)
+    assert models.absorber().preset("standard") == standard
+    assert models.absorber().preset("fig3a") == dict(standard, R=0.60, F=0.45)
+    assert models.absorber().preset("fig3b") == dict(standard, R=0.45, F=0.60)
+    assert models.isolator().preset("standard") == dict(standard, c3=100.0, R=1.5)
+    assert models.isolator().preset("fig4a") == dict(standard, c3=0.25, R=0.60, F=0.45)
+    assert models.isolator().preset("fig4b") == dict(standard, c3=0.25, R=0.45, F=0.60)
