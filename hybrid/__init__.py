@@ -11,6 +11,9 @@ from ._expr import ExpressionError as ExpressionError
 from ._loader import load_system as load_system
 from ._loader import system_from_dict as system_from_dict
 from ._options import SolverOptions as SolverOptions
+from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
+from ._orbit import PeriodicOrbit as PeriodicOrbit
+from ._orbit import periodic_orbit as periodic_orbit
 from ._simulate import SimulationError as SimulationError
 from ._simulate import initial_state as initial_state
 from ._simulate import simulate as simulate

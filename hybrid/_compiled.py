@@ -43,33 +43,42 @@ class CompiledGuard:
     grad: tuple  # closures v -> dh/dy_j (None where identically zero)
     grad_t: object
     reset: tuple  # ((var index, closure), ...)
+    reset_expr: tuple = ()  # ((var index, Expr), ...)
 
 
 class CompiledMode:
-    """One mode's equations, Jacobians, guards and outputs as closures."""
+    """One mode's equations, Jacobians, guards and outputs as closures.
 
-    def __init__(self, system: HybridSystem, index: int, params: Mapping[str, float]):
+    Parameters named in ``free`` are not folded in: they are appended to the
+    state as differential variables with zero derivative, so that Jacobians
+    include the derivatives with respect to them (parameter sensitivities).
+    """
+
+    def __init__(
+        self, system: HybridSystem, index: int, params: Mapping[str, float], free: tuple[str, ...] = ()
+    ):
         mode = system.modes[index]
         data = system._cache["modes"][mode.name]
-        names = system.variable_names
+        names = tuple(system.variable_names) + tuple(free)
         self.name = mode.name
         self.index = index
         self.n = n = len(names)
         self.names = names
         slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
-        pconst = {k: num(v) for k, v in params.items()}
+        pconst = {k: num(v) for k, v in params.items() if k not in free}
         self._slots = slots
         self._params = dict(params)
 
         def fold(e: Expr) -> Expr:
             return substitute(e, pconst)
 
-        self.diff_idx = np.array([i for i, nm in enumerate(names) if nm in data["derivatives"]], dtype=int)
+        derivs = {**data["derivatives"], **{p: num(0.0) for p in free}}
+        self.diff_idx = np.array([i for i, nm in enumerate(names) if nm in derivs], dtype=int)
         self.alg_idx = np.array([i for i, nm in enumerate(names) if nm in data["algebraic"]], dtype=int)
         self.is_diff = np.zeros(n, dtype=bool)
         self.is_diff[self.diff_idx] = True
         # Row expressions: derivative for differential rows, residual for algebraic rows.
-        self.f_expr = {i: fold(data["derivatives"][names[i]]) for i in self.diff_idx}
+        self.f_expr = {i: fold(derivs[names[i]]) for i in self.diff_idx}
         self.g_expr = {i: fold(data["algebraic"][names[i]]) for i in self.alg_idx}
         self.f = [(int(i), compile_scalar(e, slots, {})) for i, e in self.f_expr.items()]
         self.g = [(int(i), compile_scalar(e, slots, {})) for i, e in self.g_expr.items()]
@@ -103,9 +112,8 @@ class CompiledMode:
             for nm in names:
                 d = diff(h, nm)
                 grad.append(None if (d.op == "num" and d.args[0] == 0.0) else compile_scalar(d, slots, {}))
-            reset = tuple(
-                (names.index(v), compile_scalar(fold(e), slots, {})) for v, e in td["reset"].items()
-            )
+            reset_expr = tuple((names.index(v), fold(e)) for v, e in td["reset"].items())
+            reset = tuple((i, compile_scalar(e, slots, {})) for i, e in reset_expr)
             guards.append(
                 CompiledGuard(
                     index=len(guards),
@@ -118,6 +126,7 @@ class CompiledMode:
                     grad=tuple(grad),
                     grad_t=compile_scalar(diff(h, "t"), slots, {}),
                     reset=reset,
+                    reset_expr=reset_expr,
                 )
             )
         self.guards: tuple[CompiledGuard, ...] = tuple(guards)
@@ -266,13 +275,14 @@ class CompiledMode:
 class CompiledSystem:
     """All modes of a system compiled for one parameter set."""
 
-    def __init__(self, system: HybridSystem, params: Mapping[str, float]):
+    def __init__(self, system: HybridSystem, params: Mapping[str, float], free: tuple[str, ...] = ()):
         self.system = system
         self.params = system.parameter_values(params)
-        self.modes = tuple(CompiledMode(system, k, self.params) for k in range(len(system.modes)))
+        self.free = tuple(free)
+        self.modes = tuple(CompiledMode(system, k, self.params, self.free) for k in range(len(system.modes)))
         self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
         self.period = system.period_value(self.params)
-        self.names = system.variable_names
+        self.names = tuple(system.variable_names) + self.free
 
     def depends_on_time(self) -> bool:
         """True if an equation or guard of any mode depends explicitly on ``t``."""

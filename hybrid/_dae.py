@@ -124,3 +124,133 @@ class ModeSolver:
         if r.status < 0:
             raise RuntimeError(f"IDA could not interpolate at t={t!r}: {r.message}")
         return np.array(r.y), np.array(r.yp)
+
+
+class SensitivitySolver:
+    """IDA on one mode's DAE together with its variational equations (no events).
+
+    The unknowns are the state ``y`` (shape (n,)) and the sensitivity matrix
+    ``Y = dy/dy0`` restricted to the variables ``s`` (shape (ns, ns), stored
+    column by column after ``y``). For every column the residual is the
+    linearised DAE ``mask * Y' + (dF/dy) Y`` (``mask``: 1 on differential rows,
+    0 on slave rows), so slave rows keep ``g_y Y = 0`` and the differential rows
+    follow ``Y' = f_y Y``. The Newton matrix omits the second-derivative
+    coupling ``d(F_y Y)/dy`` (zero for modes linear in the state); IDA's
+    corrector converges with it as an approximate Jacobian.
+
+    Parameters
+    ----------
+    mode : CompiledMode
+        The mode's equations (possibly with free parameters appended to the state).
+    s : ndarray of int
+        State indices whose sensitivities are carried (quadratures excluded).
+    rtol : float
+        Relative tolerance (state and sensitivities).
+    atol : ndarray, shape (n,)
+        Absolute tolerance of the state.
+    atol_sens : float
+        Absolute tolerance of the sensitivity entries.
+    max_step : float
+        Step bound [s].
+    max_num_steps : int
+        Internal steps per call.
+    """
+
+    def __init__(
+        self,
+        mode: CompiledMode,
+        s: np.ndarray,
+        *,
+        rtol: float,
+        atol: np.ndarray,
+        atol_sens: float,
+        max_step: float,
+        max_num_steps: int,
+    ):
+        self.mode = mode
+        n, ns = mode.n, int(s.size)
+        self.n, self.ns, self.s = n, ns, np.asarray(s, dtype=int)
+        ix = np.ix_(self.s, self.s)
+        mask = mode.is_diff[self.s].astype(float)
+        self._mask = mask
+        const = not any(i in set(self.s.tolist()) and j in set(self.s.tolist()) for i, j, _ in mode.jac_terms)
+        self._J_const = mode.jac_base[ix].copy() if const else None
+        self._ix = ix
+        mcol = mask[:, None]
+        N = n + ns * ns
+        blocks = [slice(n + j * ns, n + (j + 1) * ns) for j in range(ns)]
+
+        def J_ss(t, y):
+            if self._J_const is not None:
+                return self._J_const
+            return mode.dFdy(t, y)[ix]
+
+        self.J_ss = J_ss
+
+        def resfn(t, z, zp, res):
+            y = z[:n]
+            mode.residual(t, y, zp[:n], res)
+            Y = z[n:].reshape((ns, ns), order="F")
+            Yp = zp[n:].reshape((ns, ns), order="F")
+            res[n:] = (mcol * Yp + J_ss(t, y) @ Y).ravel(order="F")
+
+        dmask = np.diag(mask)
+
+        def jacfn(t, z, zp, res, cj, JJ):
+            JJ[:, :] = 0.0
+            top = np.empty((n, n))
+            mode.jacobian(t, z[:n], cj, top)
+            JJ[:n, :n] = top
+            B = J_ss(t, z[:n]) + cj * dmask
+            for b in blocks:
+                JJ[b, b] = B
+
+        alg = list(mode.alg_idx.tolist())
+        alg_s = [k for k, i in enumerate(self.s.tolist()) if not mode.is_diff[i]]
+        for j in range(ns):
+            alg += [n + j * ns + k for k in alg_s]
+        atol_all = np.concatenate([np.asarray(atol, dtype=float), np.full(ns * ns, float(atol_sens))])
+        opts = dict(
+            rtol=rtol,
+            atol=atol_all,
+            max_step=max_step,
+            max_num_steps=max_num_steps,
+            jacfn=jacfn,
+            calc_initcond=None,
+        )
+        if alg:
+            opts["algebraic_idx"] = alg
+        self._N = N
+        self._ida = IDA(resfn, **opts)
+        self.nfev = 0
+
+    def propagate(
+        self, t0: float, y0: np.ndarray, Y0: np.ndarray, t1: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Integrate from ``(t0, y0, Y0)`` (consistent) to ``t1``; return ``(y(t1), Y(t1))``."""
+        mode, n, ns = self.mode, self.n, self.ns
+        yp0 = mode.derivatives(t0, y0)
+        J = self.J_ss(t0, y0)
+        Yp0 = -(J @ Y0)
+        d = np.flatnonzero(self._mask > 0)
+        a = np.flatnonzero(self._mask == 0)
+        if a.size:
+            Yp0[a] = -np.linalg.solve(J[np.ix_(a, a)], J[np.ix_(a, d)] @ Yp0[d])
+        z0 = np.concatenate([y0, Y0.ravel(order="F")])
+        zp0 = np.concatenate([yp0, Yp0.ravel(order="F")])
+        self._ida.init_step(float(t0), z0, zp0)
+        t = float(t0)
+        while True:
+            r = self._ida.step(float(t1), "normal", tstop=float(t1))
+            self.nfev += int(r.nfev)
+            if r.status < 0:
+                if float(r.t) > t:  # max_num_steps reached: go on from where it stopped
+                    t = float(r.t)
+                    continue
+                raise RuntimeError(
+                    f"IDA failed in the variational equations of mode `{mode.name}` at t={r.t!r}: {r.message}"
+                )
+            z = np.array(r.y)
+            if float(r.t) >= t1 or r.status in (SUCCESS, TSTOP):
+                return z[:n], z[n:].reshape((ns, ns), order="F")
+            t = float(r.t)

@@ -45,6 +45,10 @@ Layout of a model file::
     input = "W"
     dissipated = "D"
     mechanical = "E"
+
+    [orbit]                      # optional: periodic-orbit hints
+    gauge = "x2 - u"             # picks the member of a neutral family (gauge = 0)
+    stick_modes = ["stick"]      # modes counted in the stick fraction
 """
 
 from __future__ import annotations
@@ -68,6 +72,7 @@ _TOP = {
     "transitions",
     "plot",
     "energy",
+    "orbit",
 }
 _MODEL = {"name", "title", "reference", "period", "initial_mode", "quadratures", "outputs"}
 _VAR = {"unit", "description"}
@@ -209,4 +214,5 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         presets=presets,
         plot=data.get("plot", {}),
         energy=data.get("energy", {}),
+        orbit=data.get("orbit", {}),
     )

@@ -179,7 +179,6 @@ def simulate(
     system.mode(mode0)
     cs = CompiledSystem(system, params)
     y0 = initial_state(system, x0, mode0)
-    atol = options.atol_vector(system.variable_names)
     samples = _sample_times(t_eval, samples_per_period, cs.period, t0, t1)
     if include_events is None:
         include_events = samples is None
@@ -191,8 +190,28 @@ def simulate(
             RuntimeWarning,
             stacklevel=2,
         )
+    return run_compiled(
+        cs, options, t0, t1, y0, cs.mode_id(mode0), samples, include_events, max_transitions, throw, progress
+    )
+
+
+def run_compiled(
+    cs: CompiledSystem,
+    options: SolverOptions,
+    t0: float,
+    t1: float,
+    y0: np.ndarray,
+    mode0: int,
+    samples: np.ndarray | None,
+    include_events: bool,
+    max_transitions: int = 1_000_000,
+    throw: bool = False,
+    progress: Callable[[float], None] | None = None,
+) -> Trajectory:
+    """:func:`simulate` on an already compiled system and checked input (no validation)."""
+    atol = options.atol_vector(cs.system.variable_names)
     run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
-    return run.execute(y0, cs.mode_id(mode0), throw)
+    return run.execute(np.asarray(y0, dtype=float), mode0, throw)
 
 
 def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | None:

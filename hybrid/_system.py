@@ -243,6 +243,12 @@ class HybridSystem:
         Names (variables or definitions) of the ``input`` work, the
         ``dissipated`` energy and the ``mechanical`` energy, for energy
         balances (``input = dissipated + change of mechanical``).
+    orbit : mapping
+        Hints for periodic orbits: ``gauge``, an expression of the state
+        (no ``t``) that selects one member of a family of periodic orbits
+        (a neutral multiplier 1, e.g. the free offset of a stuck friction
+        element): the member with ``gauge = 0`` at the section is returned;
+        ``stick_modes``, the modes counted in an orbit's stick fraction.
 
     Examples
     --------
@@ -276,6 +282,7 @@ class HybridSystem:
     reference: str = ""
     plot: Mapping[str, object] = field(default_factory=dict)
     energy: Mapping[str, str] = field(default_factory=dict)
+    orbit: Mapping[str, object] = field(default_factory=dict)
 
     # ------------------------------------------------------------------
     def __post_init__(self):
@@ -290,6 +297,7 @@ class HybridSystem:
         set_(self, "definitions", _frozen_map(self.definitions, "definitions"))
         set_(self, "plot", MappingProxyType(dict(self.plot)))
         set_(self, "energy", _frozen_map(self.energy, "energy"))
+        set_(self, "orbit", MappingProxyType(dict(self.orbit)))
         set_(
             self,
             "presets",
@@ -459,6 +467,7 @@ class HybridSystem:
             for m in self.modes:
                 if o not in mode_data[m.name]["defs"]:
                     raise ModelError(f"{pre}: output `{o}` is not a definition in mode `{m.name}`")
+        self._validate_orbit(pre, base_known, parsed_defs, mode_data)
         if self.period is not None:
             pe = parse(self.period, set(pnames), f"{pre}: period")
             self._set_cache("period", pe)
@@ -479,6 +488,33 @@ class HybridSystem:
                     )
         self._set_cache("modes", mode_data)
         self._set_cache("transitions", trans)
+
+    def _validate_orbit(self, pre: str, base_known: set[str], defs: Mapping[str, Expr], mode_data) -> None:
+        unknown = set(self.orbit) - {"gauge", "stick_modes"}
+        if unknown:
+            raise ModelError(
+                f"{pre}: [orbit] has unknown key(s) {', '.join(sorted(unknown))}; allowed: gauge, stick_modes"
+            )
+        gauge = self.orbit.get("gauge")
+        if gauge is None:
+            self._set_cache("gauge", None)
+        else:
+            if not isinstance(gauge, str):
+                raise ModelError(f"{pre}: [orbit] `gauge` must be an expression string, got {gauge!r}")
+            g = _Expander(defs)(parse(gauge, base_known | set(defs), f"{pre}: orbit gauge"))
+            if "t" in free_symbols(g) or not (free_symbols(g) & {v.name for v in self.variables}):
+                raise ModelError(f"{pre}: orbit gauge {gauge!r} must depend on the state and not on t")
+            if free_symbols(g) & set(self.quadratures):
+                raise ModelError(f"{pre}: orbit gauge {gauge!r} depends on a quadrature")
+            self._set_cache("gauge", g)
+        sm = self.orbit.get("stick_modes", ())
+        if isinstance(sm, str) or not all(isinstance(m, str) for m in sm):
+            raise ModelError(f"{pre}: [orbit] `stick_modes` must be a list of mode names, got {sm!r}")
+        for m in sm:
+            if m not in mode_data:
+                raise ModelError(
+                    f"{pre}: [orbit] stick mode `{m}` is not a mode; modes: {', '.join(mode_data)}"
+                )
 
     def _set_cache(self, key: str, value) -> None:
         cache = self.__dict__.setdefault("_cache", {})

@@ -1,0 +1,714 @@
+"""Periodic orbits of periodically forced hybrid systems: shooting with an exact monodromy.
+
+The stroboscopic map ``P: y(t0) -> y(t0 + T)`` over one forcing period is
+evaluated by an event-driven run (:func:`hybrid.simulate`); its Jacobian, the
+monodromy matrix, by the variational equations of each mode and the
+saltation matrix of each switch (:mod:`hybrid._variational`). Newton's method
+solves ``P(y) = y`` on the differential variables of the section's mode (its
+slave variables are solved from their algebraic equations at the section).
+
+Choices that make this work for stick-slip systems:
+
+* the section phase is put in the middle of the longest mode interval of the
+  guess, so that the map is smooth near the orbit and the mode at ``t0 + T``
+  equals the mode at ``t0`` (a converged orbit is checked for it);
+* Newton steps are least-squares steps: ``I - M`` is singular on a family of
+  orbits (a neutral multiplier 1, e.g. the free offset of a stuck friction
+  element) and nearly singular for weakly damped orbits (multipliers 0.99 and
+  above). On a family the model's ``orbit.gauge`` expression (= 0 at the
+  section) picks the member; without one the member nearest the guess is kept;
+* the accuracy is reported: the Newton residual and the condition number of
+  ``I - M``, whose product with the integration tolerance bounds the error
+  of the orbit's state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._compiled import CompiledSystem
+from ._expr import compile_scalar, diff
+from ._options import SolverOptions
+from ._simulate import initial_state, run_compiled
+from ._system import HybridSystem
+from ._trajectory import Trajectory
+from ._variational import Sensitivity
+
+__all__ = ["PeriodicOrbit", "periodic_orbit", "ORBIT_OPTIONS"]
+
+#: Default tolerances for periodic orbits (tighter than for plain simulation:
+#: the error of a weakly damped orbit is the integration error times cond(I - M)).
+ORBIT_OPTIONS = SolverOptions(rtol=1e-10, atol=1e-12)
+
+
+@dataclass(frozen=True)
+class PeriodicOrbit:
+    """A periodic orbit of a periodically forced hybrid system, with its Floquet multipliers.
+
+    Attributes
+    ----------
+    system : HybridSystem
+        The model.
+    params : dict
+        Parameter values used.
+    t0 : float
+        Section time [s] (``0 <= t0 < period``; the forcing phase of the section).
+    period : float
+        Forcing period [s].
+    x0 : ndarray, shape (n_vars,)
+        State at the section (quadratures 0), over ``system.variable_names``.
+    mode0 : str
+        Mode at the section (and at ``t0 + period``).
+    trajectory : Trajectory
+        One period from the section, sampled, with both sides of each switch.
+    amplitude : dict
+        Per variable and output: ``max |x|`` over the period.
+    half_peak_to_peak : dict
+        Per variable and output: ``(max x - min x) / 2``.
+    mode_sequence : tuple of str
+        Modes in the order visited from the section.
+    switch_times : ndarray
+        Switch times after the section [s], ``0 <= t - t0 < period``.
+    mode_fractions : dict
+        Fraction of the period spent in each mode.
+    stick_fraction : float or None
+        Fraction of the period in the model's ``orbit.stick_modes``.
+    state_names : tuple of str
+        Variables of the monodromy (quadratures excluded).
+    monodromy : ndarray
+        ``dy(t0 + T)/dy(t0)`` over ``state_names`` (columns of the section
+        mode's slave variables are zero: they are functions of the others).
+    multipliers : ndarray of complex
+        Floquet multipliers, one per entry of ``state_names``, by decreasing modulus.
+    multiplier_kinds : tuple of str
+        ``"floquet"``; ``"neutral"`` (the multiplier 1 of a family of orbits,
+        e.g. the free offset of a stuck friction element); ``"structural"``
+        (a zero from a slave variable, e.g. the massless point of a
+        friction-spring element while it slips).
+    stability : str
+        ``"stable"`` (all Floquet multipliers inside the unit circle),
+        ``"unstable"`` (one outside) or ``"neutral"`` (none outside, one on the
+        circle, e.g. the undamped linear response of a stuck element).
+    converged : bool
+        Newton's method met its tolerance.
+    residual : float
+        ``max |P(x0) - x0|`` relative to ``max |x0|`` (differential variables).
+    iterations : int
+        Newton iterations.
+    condition : float
+        Condition number of ``I - M`` on the section's differential
+        variables (the family direction removed when a gauge fixes it).
+    family : bool
+        The orbit belongs to a family (a neutral multiplier 1).
+    message : str
+        What happened, including accuracy limits.
+    energy : dict
+        ``input``, ``dissipated`` [J] over the period and their balance
+        residual, if the model declares its energy names.
+    nfev : int
+        Residual evaluations of all runs of the Newton iteration.
+    """
+
+    system: HybridSystem
+    params: dict
+    t0: float
+    period: float
+    x0: np.ndarray
+    mode0: str
+    trajectory: Trajectory
+    amplitude: dict
+    half_peak_to_peak: dict
+    mode_sequence: tuple
+    switch_times: np.ndarray
+    mode_fractions: dict
+    stick_fraction: float | None
+    state_names: tuple
+    monodromy: np.ndarray
+    multipliers: np.ndarray
+    multiplier_kinds: tuple
+    stability: str
+    converged: bool
+    residual: float
+    iterations: int
+    condition: float
+    family: bool
+    message: str
+    energy: dict = field(default_factory=dict)
+    nfev: int = 0
+
+    @property
+    def stable(self) -> bool | None:
+        """True if stable, False if unstable, None if neutral (marginally stable)."""
+        return {"stable": True, "unstable": False}.get(self.stability)
+
+    @property
+    def transitions_per_period(self) -> int:
+        return len(self.switch_times)
+
+    @property
+    def floquet_multipliers(self) -> np.ndarray:
+        """The multipliers that decide stability (neutral and structural ones removed)."""
+        keep = [k == "floquet" for k in self.multiplier_kinds]
+        return self.multipliers[np.array(keep, dtype=bool)]
+
+    def state(self, name: str) -> float:
+        """Value of variable ``name`` at the section."""
+        return float(self.x0[self.system.variable_names.index(name)])
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary."""
+        return {
+            "model": self.system.name,
+            "parameters": dict(self.params),
+            "period": self.period,
+            "t0": self.t0,
+            "mode0": self.mode0,
+            "x0": {n: float(v) for n, v in zip(self.system.variable_names, self.x0, strict=True)},
+            "amplitude": dict(self.amplitude),
+            "half_peak_to_peak": dict(self.half_peak_to_peak),
+            "multipliers": [[float(z.real), float(z.imag)] for z in self.multipliers],
+            "multiplier_kinds": list(self.multiplier_kinds),
+            "stability": self.stability,
+            "stable": self.stable,
+            "transitions_per_period": self.transitions_per_period,
+            "mode_sequence": list(self.mode_sequence),
+            "switch_times": [float(t) for t in self.switch_times],
+            "mode_fractions": dict(self.mode_fractions),
+            "stick_fraction": self.stick_fraction,
+            "family": self.family,
+            "converged": self.converged,
+            "residual": self.residual,
+            "iterations": self.iterations,
+            "condition": self.condition,
+            "energy": dict(self.energy),
+            "message": self.message,
+        }
+
+    def __repr__(self) -> str:
+        mu = ", ".join(f"{abs(z):.6g}" for z in self.floquet_multipliers[:4])
+        return (
+            f"PeriodicOrbit({self.system.name}, T={self.period:.6g} s, {self.stability}, "
+            f"{self.transitions_per_period} switches/period, |multipliers| {mu}, "
+            f"{'converged' if self.converged else 'NOT converged'}, residual {self.residual:.2g})"
+        )
+
+
+# ----------------------------------------------------------------------
+class Shooter:
+    """The stroboscopic map of one system and its derivatives (state and, optionally, one parameter).
+
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping
+        Parameter values (checked).
+    options : SolverOptions
+    free : str, optional
+        A parameter to differentiate the map by (for continuation).
+    """
+
+    def __init__(
+        self,
+        system: HybridSystem,
+        params: Mapping[str, float],
+        options: SolverOptions,
+        free: str | None = None,
+    ):
+        self.system = system
+        self.options = options
+        self.free = free
+        self.names = system.variable_names
+        self.set_params(params)
+        self.ext = CompiledSystem(system, self.params, (free,) if free else ())
+        T = self.period
+        self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
+        nb = len(self.names)
+        self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
+        gauge = system._cache.get("gauge")
+        if gauge is not None:
+            slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(self.names)}}
+            pconst = dict(self.params)
+            self._gauge = compile_scalar(gauge, slots, pconst)
+            self._gauge_grad = [compile_scalar(diff(gauge, nm), slots, pconst) for nm in self.names]
+        else:
+            self._gauge = None
+        pe = system._cache["period"]
+        self._dT = compile_scalar(diff(pe, free), {}, {}) if free else None
+        self._pe = pe
+        self.nfev = 0
+
+    def set_params(self, params: Mapping[str, float]) -> None:
+        self.params = self.system.parameter_values(params)
+        self.cs = CompiledSystem(self.system, self.params)
+        self.period = self.cs.period
+        if self.period is None:
+            raise ValueError(
+                f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
+            )
+        if self.free is not None:
+            self.ext_values = np.array([self.params[self.free]])
+        else:
+            self.ext_values = np.zeros(0)
+
+    def dT(self) -> float:
+        """d(period)/d(free parameter)."""
+        return float(self._dT(self.params)) if self._dT is not None else 0.0
+
+    # ------------------------------------------------------------------
+    def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
+        """One period from ``(t0, y0, mode0)`` (quadratures reset to 0)."""
+        y = np.array(y0, dtype=float)
+        for q in self.system.quadratures:
+            y[self.names.index(q)] = 0.0
+        T = self.period
+        grid = np.linspace(t0, t0 + T, samples + 1) if samples else np.array([t0, t0 + T])
+        tr = run_compiled(self.cs, self.options, t0, t0 + T, y, self.cs.mode_id(mode0), grid, bool(samples))
+        self.nfev += tr.nfev
+        return tr
+
+    def monodromy(self, tr: Trajectory) -> np.ndarray:
+        """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
+        M = self.sens.fundamental(tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values)
+        self.nfev = self.nfev  # sensitivity evaluations counted separately
+        return M
+
+    def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
+        if self._gauge is None:
+            return None
+        v = [0.0, *y.tolist()]
+        return float(self._gauge(v)), np.array([g(v) for g in self._gauge_grad])
+
+
+# ----------------------------------------------------------------------
+def _choose_section(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
+    """Section time/state/mode in the middle of the longest mode interval of the run's last period.
+
+    The interval across the period boundary counts as one (its first and last pieces joined).
+    """
+    t_end = tr.t_final
+    t_start = t_end - T
+    ivs = [(max(a, t_start), b, m) for a, b, m in tr.mode_intervals() if b > t_start]
+    if len(ivs) <= 1:
+        return t_end, tr.y_final, tr.mode_final
+    first, last = ivs[0], ivs[-1]
+    cands = list(ivs[1:-1])
+    if first[2] == last[2]:
+        cands.append((last[0], first[1] + T, last[2]))  # wrapped interval
+    else:
+        cands += [first, last]
+    a, b, m = max(cands, key=lambda iv: iv[1] - iv[0])
+    tm = 0.5 * (a + b)
+    if tm > t_end:
+        tm -= T
+    k = int(np.argmin(np.abs(tr.t - tm)))
+    return float(tr.t[k]), tr.y[k].copy(), str(tr.mode[k])
+
+
+def _refined_extrema(t: np.ndarray, x: np.ndarray) -> tuple[float, float]:
+    """Max and min of sampled ``x``, refined by a parabola through the three samples around each."""
+
+    def refine(k: int, sgn: float) -> float:
+        if 0 < k < x.size - 1 and t[k - 1] < t[k] < t[k + 1]:
+            x0, x1, x2 = x[k - 1], x[k], x[k + 1]
+            h1, h2 = t[k] - t[k - 1], t[k + 1] - t[k]
+            if abs(h1 - h2) <= 1e-9 * (h1 + h2):
+                den = x0 - 2.0 * x1 + x2
+                if sgn * den < 0:
+                    return float(x1 - (x2 - x0) ** 2 / (8.0 * den))
+        return float(x[k])
+
+    return refine(int(np.argmax(x)), 1.0), refine(int(np.argmin(x)), -1.0)
+
+
+def _classify(
+    mult: np.ndarray, n_struct: int, family: bool, tol: float
+) -> tuple[np.ndarray, tuple[str, ...], str]:
+    order = np.argsort(-np.abs(mult), kind="stable")
+    mult = mult[order]
+    kinds = ["floquet"] * mult.size
+    for k in range(mult.size - n_struct, mult.size):
+        kinds[k] = "structural"
+    if family:
+        cand = [k for k in range(mult.size) if kinds[k] == "floquet"]
+        k = min(cand, key=lambda k: abs(mult[k] - 1.0))
+        kinds[k] = "neutral"
+    fl = np.array([abs(m) for m, kd in zip(mult, kinds, strict=True) if kd == "floquet"])
+    if fl.size and fl.max() > 1.0 + tol:
+        verdict = "unstable"
+    elif family or (fl.size and fl.max() >= 1.0 - tol):
+        verdict = "neutral"
+    else:
+        verdict = "stable"
+    return mult, tuple(kinds), verdict
+
+
+def _check_inputs(system: HybridSystem, options, tol: float, max_iter: int, transient_periods: int) -> None:
+    if not isinstance(system, HybridSystem):
+        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+    if system.period is None:
+        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+    if not isinstance(options, SolverOptions):
+        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
+    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
+        raise ValueError(f"`tol` must be a number > 0, got {tol!r}")
+    for name, v, lo in (("max_iter", max_iter, 1), ("transient_periods", transient_periods, 0)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
+
+
+def periodic_orbit(
+    system: HybridSystem,
+    params: Mapping[str, float],
+    x0=None,
+    mode0: str | None = None,
+    *,
+    t0: float | None = None,
+    transient_periods: int = 10,
+    options: SolverOptions | None = None,
+    tol: float = 1e-9,
+    max_iter: int = 30,
+    samples_per_period: int = 512,
+) -> PeriodicOrbit:
+    """Periodic orbit by Newton shooting, with its monodromy matrix and Floquet multipliers.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        A periodically forced model (it declares a ``period``).
+    params : mapping of str to float
+        All parameter values.
+    x0 : mapping or array_like, optional
+        Guess of the state (default: all 0 in the initial mode).
+    mode0 : str, optional
+        Mode of the guess (default: the model's initial mode).
+    t0 : float, optional
+        Time of the guess [s]. If given with ``transient_periods=0``, the
+        section is ``(t0, x0, mode0)`` as given (e.g. the previous point of a
+        continuation); otherwise a transient of ``transient_periods`` forcing
+        periods is run from the guess and the section is put in the middle of
+        the longest mode interval of its last period.
+    transient_periods : int
+        Forcing periods simulated from the guess before Newton's method.
+    options : SolverOptions, optional
+        Tolerances (default :data:`ORBIT_OPTIONS`, rtol 1e-10).
+    tol : float
+        Newton tolerance on ``max |P(x) - x| / max |x|``.
+    max_iter : int
+        Newton iterations allowed.
+    samples_per_period : int
+        Samples of the returned one-period trajectory.
+
+    Returns
+    -------
+    PeriodicOrbit
+        ``converged`` is False (with the reason in ``message``) if Newton's
+        method failed, e.g. when the response grows without bound (no bounded
+        periodic orbit) or a run failed.
+
+    Raises
+    ------
+    ValueError
+        Bad input (before any integration).
+    """
+    options = ORBIT_OPTIONS if options is None else options
+    _check_inputs(system, options, tol, max_iter, transient_periods)
+    mode0 = mode0 if mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
+    system.mode(mode0)
+    shooter = Shooter(system, params, options)
+    if x0 is None:
+        x0 = np.zeros(len(system.variable_names))
+    y = initial_state(system, x0, mode0)
+    start = 0.0 if t0 is None else float(t0)
+    if not math.isfinite(start):
+        raise ValueError(f"`t0` must be finite, got {t0!r}")
+    return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+
+
+def solve_orbit(
+    shooter: Shooter,
+    y: np.ndarray,
+    mode0: str,
+    t_start: float,
+    transient_periods: int,
+    tol: float,
+    max_iter: int,
+    samples: int,
+) -> PeriodicOrbit:
+    """Newton shooting from a guess (see :func:`periodic_orbit`)."""
+    T = shooter.period
+    t_sec, mode = t_start, mode0
+    if transient_periods > 0:
+        tr = run_compiled(
+            shooter.cs,
+            shooter.options,
+            t_start,
+            t_start + transient_periods * T,
+            y,
+            shooter.cs.mode_id(mode0),
+            np.linspace(t_start + (transient_periods - 1) * T, t_start + transient_periods * T, 257),
+            True,
+        )
+        shooter.nfev += tr.nfev
+        if not tr.success:
+            return _failed(shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}")
+        t_sec, y, mode = _choose_section(tr, T)
+    t_sec = t_sec - math.floor(t_sec / T) * T
+    return newton(shooter, y, mode, t_sec, tol, max_iter, samples)
+
+
+def _failed(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
+    nan = float("nan")
+    names = tuple(n for n in shooter.names if n not in shooter.system.quadratures)
+    ns = len(names)
+    return PeriodicOrbit(
+        system=shooter.system,
+        params=dict(shooter.params),
+        t0=float(t0),
+        period=shooter.period,
+        x0=np.asarray(y, dtype=float),
+        mode0=mode0,
+        trajectory=None,
+        amplitude={},
+        half_peak_to_peak={},
+        mode_sequence=(),
+        switch_times=np.zeros(0),
+        mode_fractions={},
+        stick_fraction=None,
+        state_names=names,
+        monodromy=np.full((ns, ns), nan),
+        multipliers=np.full(ns, nan, dtype=complex),
+        multiplier_kinds=("floquet",) * ns,
+        stability="unknown",
+        converged=False,
+        residual=float(res),
+        iterations=it,
+        condition=nan,
+        family=False,
+        message=msg,
+        nfev=shooter.nfev,
+    )
+
+
+def _scale(y: np.ndarray, d: np.ndarray) -> float:
+    return max(float(np.max(np.abs(y[d]))) if d.size else 0.0, 1e-300)
+
+
+class _Newton:
+    """One section mode's Newton system: unknowns are its differential (non-quadrature) variables."""
+
+    def __init__(self, shooter: Shooter, mode: str):
+        self.sh = shooter
+        cm = shooter.cs.modes[shooter.cs.mode_id(mode)]
+        s = shooter.s
+        self.d = np.array([i for i in s if cm.is_diff[i]], dtype=int)  # unknowns (state indices)
+        self.pos = np.array([int(np.flatnonzero(s == i)[0]) for i in self.d], dtype=int)  # in s
+        self.cm = cm
+
+    def residual(self, tr: Trajectory, y0: np.ndarray) -> np.ndarray:
+        return tr.y_final[self.d] - y0[self.d]
+
+    def project(self, t: float, y: np.ndarray) -> np.ndarray:
+        return self.cm.solve_algebraic(t, y)
+
+
+def newton(
+    shooter: Shooter, y: np.ndarray, mode0: str, t0: float, tol: float, max_iter: int, samples: int
+) -> PeriodicOrbit:
+    """Newton's method on ``P(y) = y`` from a section state (see :func:`periodic_orbit`)."""
+    nw = _Newton(shooter, mode0)
+    d = nw.d
+    rcond = 1e-7
+    try:
+        y = nw.project(t0, np.array(y, dtype=float))
+    except Exception as exc:  # AlgebraicSolveError
+        return _failed(shooter, y, mode0, t0, 0, math.inf, f"guess is not consistent: {exc}")
+    scale0 = _scale(y, d)
+    res_norm = math.inf
+    note = ""
+    family = False
+    it = 0
+    rephased = 0
+    while True:
+        tr = shooter.run(y, mode0, t0)
+        if not tr.success:
+            return _failed(shooter, y, mode0, t0, it, res_norm, f"run failed at iteration {it}: {tr.message}")
+        r = nw.residual(tr, y)
+        scale = _scale(y, d)
+        res_norm = float(np.max(np.abs(r))) / scale
+        g = shooter.gauge(y)
+        gauge_bad = family and g is not None and abs(g[0]) > tol * scale
+        if res_norm <= tol and not gauge_bad:
+            if tr.mode_final == mode0:
+                break
+            if rephased < 3:  # converged onto a section at a switch: move the section
+                rephased += 1
+                trx = shooter.run(y, mode0, t0, samples=256)
+                t1, y1, m1 = _choose_section_period(trx, shooter.period)
+                t0, y, mode0 = t1, y1, m1
+                nw = _Newton(shooter, mode0)
+                d = nw.d
+                continue
+            note = "the mode at t0 + T differs from the section's mode; "
+            break
+        if it >= max_iter:
+            grows = scale > 1e3 * max(scale0, 1e-300)
+            why = (
+                "the response grows without bound: no bounded periodic orbit"
+                if grows
+                else "Newton's method did not converge"
+            )
+            return _failed(
+                shooter, y, mode0, t0, it, res_norm, f"{why} ({it} iterations, residual {res_norm:.3g})"
+            )
+        if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(scale0, 1.0):
+            return _failed(
+                shooter,
+                y,
+                mode0,
+                t0,
+                it,
+                res_norm,
+                "the response grows without bound: no bounded periodic orbit "
+                f"(max |x| = {scale:.3g} after {it} Newton iterations)",
+            )
+        it += 1
+        M = shooter.monodromy(tr)
+        A = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
+        sv = np.linalg.svd(A, compute_uv=False)
+        family = bool(sv[-1] <= 1e-6 * max(1.0, sv[0]))
+        rhs = -r
+        if family and g is not None:
+            gy = g[1][d]
+            A = np.vstack([A, gy])
+            rhs = np.concatenate([rhs, [-g[0]]])
+        step = np.linalg.lstsq(A, rhs, rcond=rcond)[0]
+        # Backtracking on the residual (the map is only piecewise smooth).
+        lam = 1.0
+        for _ in range(6):
+            y_new = y.copy()
+            y_new[d] += lam * step
+            try:
+                y_new = nw.project(t0, y_new)
+            except Exception:
+                lam *= 0.5
+                continue
+            tr_new = shooter.run(y_new, mode0, t0)
+            if tr_new.success:
+                r_new = float(np.max(np.abs(nw.residual(tr_new, y_new)))) / _scale(y_new, d)
+                if r_new < res_norm or lam < 0.1 or res_norm > 0.1:
+                    break
+            lam *= 0.5
+        y = y_new
+    return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note)
+
+
+def _choose_section_period(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
+    t, y, m = _choose_section(tr, T)
+    return t - math.floor(t / T) * T, y, m
+
+
+def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note) -> PeriodicOrbit:
+    sys_ = shooter.system
+    names = shooter.names
+    tr = shooter.run(y, mode0, t0, samples=samples)
+    M = shooter.monodromy(tr)
+    s = shooter.s
+    ns = s.size
+    Ms = M[:ns, :ns]
+    A = Ms[np.ix_(nw.pos, nw.pos)]
+    IA = np.eye(nw.d.size) - A
+    sv = np.linalg.svd(IA, compute_uv=False)
+    family = bool(sv[-1] <= 1e-6 * max(1.0, sv[0]))
+    g = shooter.gauge(y)
+    if family and g is not None and sv.size > 1:
+        cond = float(sv[0] / sv[-2])
+    else:
+        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    mult = np.concatenate([np.linalg.eigvals(A), np.zeros(ns - nw.d.size)])
+    # Structural zeros: slave variables at the section, plus a dimension lost in any mode visited.
+    nd = {m.name: sum(1 for i in s if m.is_diff[i]) for m in shooter.cs.modes}
+    visited = {mode0} | {e.target for e in tr.events}
+    n_struct = ns - min(nd[m] for m in visited)
+    mtol = max(1e-6, 100.0 * shooter.options.rtol)
+    mult, kinds, verdict = _classify(mult, n_struct, family, mtol)
+    # Amplitudes (variables and outputs).
+    amp, hpp = {}, {}
+    series = {n: tr.y[:, i] for i, n in enumerate(names) if n not in sys_.quadratures}
+    series.update({o: tr.outputs[o] for o in sys_.outputs})
+    for n, x in series.items():
+        hi, lo = _refined_extrema(tr.t, x)
+        amp[n] = max(abs(hi), abs(lo))
+        hpp[n] = 0.5 * (hi - lo)
+    ivs = tr.mode_intervals()
+    fr: dict[str, float] = {}
+    for a, b, m in ivs:
+        fr[m] = fr.get(m, 0.0) + (b - a) / shooter.period
+    sm = tuple(sys_.orbit.get("stick_modes", ()))
+    stick = sum(fr.get(m, 0.0) for m in sm) if sm else None
+    seq = [mode0] + [e.target for e in tr.events]
+    energy = {}
+    en = sys_.energy
+    if "input" in en and "dissipated" in en:
+        W, D = tr.final(en["input"]), tr.final(en["dissipated"])
+        dE = tr[en["mechanical"]][-1] - tr[en["mechanical"]][0] if "mechanical" in en else 0.0
+        res = float(W - D - dE)
+        exchanged = max(abs(W), abs(D))
+        emax = float(np.max(np.abs(tr[en["mechanical"]]))) if "mechanical" in en else 0.0
+        energy = {
+            "input": float(W),
+            "dissipated": float(D),
+            "mechanical_change": float(dE),
+            "residual": res,
+            # Relative to the energy exchanged per period; None when nothing is exchanged
+            # (an undamped stuck orbit), where the ratio would be noise over noise.
+            "relative_residual": res / exchanged if exchanged > 1e-9 * emax else None,
+        }
+    msg = note
+    if family:
+        msg += "a family of periodic orbits (neutral multiplier 1); " + (
+            "the member with gauge `" + str(sys_.orbit.get("gauge")) + "` = 0 is returned; "
+            if g is not None
+            else "the member nearest the guess is returned; "
+        )
+    err = cond * shooter.options.rtol
+    if err > 1e-6:
+        msg += (
+            f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about "
+            f"cond x rtol = {err:.2g} (relative); tighten rtol for more; "
+        )
+    conv = res_norm <= tol and not note
+    msg += "converged" if conv else "converged in the residual, see above"
+    return PeriodicOrbit(
+        system=sys_,
+        params=dict(shooter.params),
+        t0=float(t0),
+        period=shooter.period,
+        x0=tr.y[0].copy(),
+        mode0=mode0,
+        trajectory=tr,
+        amplitude=amp,
+        half_peak_to_peak=hpp,
+        mode_sequence=tuple(seq),
+        switch_times=np.array([e.t - t0 for e in tr.events]),
+        mode_fractions=fr,
+        stick_fraction=stick,
+        state_names=tuple(names[i] for i in s),
+        monodromy=Ms,
+        multipliers=mult,
+        multiplier_kinds=kinds,
+        stability=verdict,
+        converged=conv,
+        residual=res_norm,
+        iterations=it,
+        condition=cond,
+        family=family,
+        message=msg.strip("; "),
+        energy=energy,
+        nfev=shooter.nfev,
+    )
