@@ -6,6 +6,9 @@ transitions and resets. :func:`simulate` integrates it event-driven, with the
 slave (algebraic) variables of each mode solved as a DAE by IDA.
 """
 
+from ._continuation import Branch as Branch
+from ._continuation import SpecialPoint as SpecialPoint
+from ._continuation import continuation as continuation
 from ._expr import FUNCTIONS as FUNCTIONS
 from ._expr import ExpressionError as ExpressionError
 from ._loader import load_system as load_system

@@ -237,8 +237,7 @@ class Shooter:
         else:
             self._gauge = None
         pe = system._cache["period"]
-        self._dT = compile_scalar(diff(pe, free), {}, {}) if free else None
-        self._pe = pe
+        self._dT = diff(pe, free) if free else None
         self.nfev = 0
 
     def set_params(self, params: Mapping[str, float]) -> None:
@@ -256,7 +255,7 @@ class Shooter:
 
     def dT(self) -> float:
         """d(period)/d(free parameter)."""
-        return float(self._dT(self.params)) if self._dT is not None else 0.0
+        return float(compile_scalar(self._dT, {}, self.params)(())) if self._dT is not None else 0.0
 
     # ------------------------------------------------------------------
     def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
@@ -344,6 +343,16 @@ def _classify(
     else:
         verdict = "stable"
     return mult, tuple(kinds), verdict
+
+
+#: A singular value of I - M below this (relative) marks a family of orbits (a multiplier 1 to the
+#: accuracy of the monodromy); weakly damped isolated orbits (multipliers 0.99999) stay above it.
+FAMILY_TOL = 1e-8
+
+
+def is_family(sv: np.ndarray) -> bool:
+    """True if the singular values ``sv`` (descending) of ``I - M`` show a neutral direction."""
+    return bool(sv[-1] <= FAMILY_TOL * max(1.0, sv[0]))
 
 
 def _check_inputs(system: HybridSystem, options, tol: float, max_iter: int, transient_periods: int) -> None:
@@ -581,7 +590,7 @@ def newton(
         M = shooter.monodromy(tr)
         A = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
         sv = np.linalg.svd(A, compute_uv=False)
-        family = bool(sv[-1] <= 1e-6 * max(1.0, sv[0]))
+        family = is_family(sv)
         rhs = -r
         if family and g is not None:
             gy = g[1][d]
@@ -613,18 +622,21 @@ def _choose_section_period(tr: Trajectory, T: float) -> tuple[float, np.ndarray,
     return t - math.floor(t / T) * T, y, m
 
 
-def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note) -> PeriodicOrbit:
+def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None, M=None) -> PeriodicOrbit:
+    """Build the orbit from its section state (``tr``, ``M``: its sampled run and monodromy, if known)."""
     sys_ = shooter.system
     names = shooter.names
-    tr = shooter.run(y, mode0, t0, samples=samples)
-    M = shooter.monodromy(tr)
+    if tr is None:
+        tr = shooter.run(y, mode0, t0, samples=samples)
+    if M is None:
+        M = shooter.monodromy(tr)
     s = shooter.s
     ns = s.size
     Ms = M[:ns, :ns]
     A = Ms[np.ix_(nw.pos, nw.pos)]
     IA = np.eye(nw.d.size) - A
     sv = np.linalg.svd(IA, compute_uv=False)
-    family = bool(sv[-1] <= 1e-6 * max(1.0, sv[0]))
+    family = is_family(sv)
     g = shooter.gauge(y)
     if family and g is not None and sv.size > 1:
         cond = float(sv[0] / sv[-2])
