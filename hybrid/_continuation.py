@@ -412,10 +412,6 @@ def continuation(
         try:
             new = c.correct(pt, ds_cur, samples_per_period)
         except (_Fail, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
-            import os
-
-            if os.environ.get("HYBRID_DEBUG"):
-                print("FAIL", ds_cur, exc)
             if ds_cur / 4.0 >= ds_min:
                 ds_cur /= 4.0
                 continue
