@@ -324,7 +324,7 @@ def continuation(
     mode0: str | None = None,
     ds: float = 0.02,
     ds_min: float = 1e-7,
-    ds_max: float = 0.2,
+    ds_max: float = 0.5,
     max_points: int = 2000,
     options: SolverOptions | None = None,
     tol: float = 1e-9,
@@ -523,7 +523,7 @@ def _locate(c: _Continuer, a: _Point, b: _Point, kind: str, ds: float, samples: 
 
     lo, hi = 0.0, ds
     best = b
-    for _ in range(14):
+    for _ in range(12):
         mid = 0.5 * (lo + hi)
         try:
             pt = c.correct(a, mid, samples)

@@ -308,16 +308,17 @@ def _choose_section(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
 
 
 def _refined_extrema(t: np.ndarray, x: np.ndarray) -> tuple[float, float]:
-    """Max and min of sampled ``x``, refined by a parabola through the three samples around each."""
+    """Max and min of sampled ``x``, refined by the parabola through the three samples around each."""
 
     def refine(k: int, sgn: float) -> float:
         if 0 < k < x.size - 1 and t[k - 1] < t[k] < t[k + 1]:
-            x0, x1, x2 = x[k - 1], x[k], x[k + 1]
-            h1, h2 = t[k] - t[k - 1], t[k + 1] - t[k]
-            if abs(h1 - h2) <= 1e-9 * (h1 + h2):
-                den = x0 - 2.0 * x1 + x2
-                if sgn * den < 0:
-                    return float(x1 - (x2 - x0) ** 2 / (8.0 * den))
+            t0, t1, t2 = t[k - 1], t[k], t[k + 1]
+            d01 = (x[k] - x[k - 1]) / (t1 - t0)
+            a = ((x[k + 1] - x[k]) / (t2 - t1) - d01) / (t2 - t0)
+            if sgn * a < 0:
+                ts = 0.5 * (t0 + t1) - d01 / (2.0 * a)
+                if t0 <= ts <= t2:
+                    return float(x[k - 1] + (ts - t0) * d01 + (ts - t0) * (ts - t1) * a)
         return float(x[k])
 
     return refine(int(np.argmax(x)), 1.0), refine(int(np.argmin(x)), -1.0)
