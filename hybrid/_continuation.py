@@ -298,7 +298,13 @@ class _Fail(Exception):
 
 
 def _signature(o: PeriodicOrbit) -> tuple[int, frozenset]:
-    return o.transitions_per_period, frozenset(o.mode_sequence)
+    """Switch instants per period and the modes occupied for a positive time.
+
+    A mode passed through at one instant (a chained switch, e.g. slip -> stick -> slip at a
+    velocity reversal) does not count, so the loss of a stick phase is seen.
+    """
+    instants = sum(1 for e in o.trajectory.events if not e.chained)
+    return instants, frozenset(m for m, f in o.mode_fractions.items() if f > 0)
 
 
 def _tests(o: PeriodicOrbit) -> tuple[float, float] | None:
@@ -381,7 +387,7 @@ def continuation(
     a, b = (float(v) for v in p_range)
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
         raise ValueError(f"`p_range` must be two different finite numbers, got {p_range!r}")
-    for nm, v in (("ds", ds), ("ds_min", ds_min), ("ds_max", ds_max)):
+    for nm, v in (("ds", ds), ("ds_min", ds_min), ("ds_max", ds_max), ("tol", tol)):
         if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
             raise ValueError(f"`{nm}` must be a number > 0, got {v!r}")
     if not ds_min <= ds <= ds_max:

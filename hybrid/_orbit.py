@@ -680,7 +680,7 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
             "residual": res,
             # Relative to the energy exchanged per period; None when nothing is exchanged
             # (an undamped stuck orbit), where the ratio would be noise over noise.
-            "relative_residual": res / exchanged if exchanged > 1e-9 * emax else None,
+            "relative_residual": res / exchanged if exchanged > 1e-6 * emax else None,
         }
     msg = note
     if family:
