@@ -11,7 +11,7 @@ import numpy as np
 
 from ._trajectory import Trajectory
 
-__all__ = ["write_trajectory_csv", "write_events_csv", "trajectory_summary", "to_json"]
+__all__ = ["write_trajectory_csv", "write_events_csv", "write_rows_csv", "trajectory_summary", "to_json"]
 
 
 def _header(traj: Trajectory) -> list[str]:
@@ -55,6 +55,32 @@ def write_events_csv(traj: Trajectory, path: str | Path) -> Path:
                 + [repr(float(v)) for v in ev.x_minus]
                 + [repr(float(v)) for v in ev.x_plus]
             )
+    return path
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, bool | np.bool_):
+        return str(bool(v)).lower()
+    if isinstance(v, float | np.floating):
+        return repr(float(v))
+    return str(v)
+
+
+def write_rows_csv(rows: list[dict], path: str | Path, columns: list[str] | None = None) -> Path:
+    """Write dicts as CSV rows; the columns are ``columns`` or the union of the keys in first-seen order.
+
+    Missing values and None are empty cells, floats are written exactly (``repr``).
+    """
+    path = Path(path)
+    if columns is None:
+        columns = list(dict.fromkeys(k for row in rows for k in row))
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(columns)
+        for row in rows:
+            w.writerow([_cell(row.get(c)) for c in columns])
     return path
 
 

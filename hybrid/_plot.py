@@ -1,27 +1,46 @@
-"""Figures of a trajectory, drawn with matplotlib's Agg canvas (no pyplot state, no display).
+"""Figures of a trajectory and of a periodic orbit, drawn with matplotlib's Agg canvas (no pyplot state).
 
 :func:`plot_trajectory` follows the manner of the paper's Figs. 5/6: the force
 of the non-smooth element against time and against its relative velocity,
 with the phases of the shaded modes (stick) marked, above the displacement
-history. Which outputs to draw comes from the model's ``plot`` hints.
+history. :func:`plot_orbit` draws the same for one period of a periodic
+orbit, with its Floquet multipliers. Which outputs to draw comes from the
+model's ``plot`` hints.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ._trajectory import Trajectory
 
-__all__ = ["plot_trajectory"]
+__all__ = ["plot_trajectory", "plot_orbit"]
 
 
 def _label(traj: Trajectory, name: str) -> str:
     units = {v.name: v.unit for v in traj.system.variables}
     unit = units.get(name) or traj.system.plot.get("units", {}).get(name, "")
     return f"{name} [{unit}]" if unit else name
+
+
+def _new_figure(figsize: tuple[float, float]) -> Figure:
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _shade_modes(ax, traj: Trajectory, shade: set, t_lo: float = -float("inf")) -> bool:
+    """Shade the intervals of the modes in ``shade`` (from ``t_lo`` on); True if any was shaded."""
+    shaded_any = False
+    for t0, t1, mode in traj.mode_intervals():
+        if mode in shade and t1 > t_lo:
+            ax.axvspan(max(t0, t_lo), t1, color="C2", alpha=0.15, lw=0, label=None if shaded_any else mode)
+            shaded_any = True
+    return shaded_any
 
 
 def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float = 4.0) -> Path:
@@ -52,8 +71,7 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
     t_lo = max(traj.t_start, traj.t_final - last_periods * period) if period else traj.t_start
     win = t >= t_lo
 
-    fig = Figure(figsize=(11, 7.5), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = _new_figure((11, 7.5))
     gs = fig.add_gridspec(2, 2)
     ax_w = fig.add_subplot(gs[1, 0])  # displacements in the window
     ax_x = fig.add_subplot(gs[1, 1])  # displacement history of the whole run
@@ -75,14 +93,7 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
             ax_v.axvline(0.0, color="0.6", lw=0.6)
         for ax in (ax_t, ax_v):
             ax.grid(alpha=0.3)
-        shaded_any = False
-        for t0, t1, mode in traj.mode_intervals():
-            if mode in shade and t1 > t_lo:
-                ax_t.axvspan(
-                    max(t0, t_lo), t1, color="C2", alpha=0.15, lw=0, label=None if shaded_any else mode
-                )
-                shaded_any = True
-        if shaded_any:
+        if _shade_modes(ax_t, traj, shade, t_lo):
             ax_t.legend(loc="upper right", fontsize=8)
     # draw the first displacement last so that it stays visible on top of larger ones
     for k, name in reversed(list(enumerate(disp))):
@@ -97,6 +108,103 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
         ax.legend(loc="upper left", fontsize=8)
     params = ", ".join(f"{k}={v:g}" for k, v in traj.params.items())
     fig.suptitle(f"{system.title or system.name}\n{params}", fontsize=10)
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def plot_orbit(orbit, path: str | Path) -> Path:
+    """Write the figure of one period of a periodic orbit as PNG.
+
+    Panels: the force of the non-smooth element against time and against its
+    relative velocity (if the model's ``plot`` hints name them), the
+    displacements against time (phases of the ``shade_modes`` shaded), and
+    the multipliers in the complex plane with the unit circle.
+
+    Parameters
+    ----------
+    orbit : PeriodicOrbit
+        A converged result of :func:`hybrid.periodic_orbit` (it has a trajectory).
+    path : str or Path
+        PNG file to write.
+
+    Returns
+    -------
+    Path
+    """
+    traj = orbit.trajectory
+    system = orbit.system
+    hints = system.plot
+    force = hints.get("force")
+    vel = hints.get("velocity")
+    disp = list(hints.get("displacements", ())) or [traj.names[0]]
+    shade = set(hints.get("shade_modes", ()))
+    t = traj.t
+
+    fig = _new_figure((11, 7.5))
+    gs = fig.add_gridspec(2, 2)
+    ax_d = fig.add_subplot(gs[1, 0])
+    ax_m = fig.add_subplot(gs[1, 1])
+    if force:
+        ax_t = fig.add_subplot(gs[0, 0], sharex=ax_d)
+        H = traj[force]
+        ax_t.plot(t, H, color="C0", lw=1.2)
+        ax_t.set_ylabel(_label(traj, force))
+        ax_t.set_title(f"{force} over one period")
+        ax_t.grid(alpha=0.3)
+        if _shade_modes(ax_t, traj, shade):
+            ax_t.legend(loc="upper right", fontsize=8)
+        if vel:
+            ax_v = fig.add_subplot(gs[0, 1])
+            ax_v.plot(traj[vel], H, color="C0", lw=1.2)
+            ax_v.axvline(0.0, color="0.6", lw=0.6)
+            ax_v.set_xlabel(_label(traj, vel))
+            ax_v.set_ylabel(_label(traj, force))
+            ax_v.set_title(f"{force} against {vel} (stick: {vel} = 0)")
+            ax_v.grid(alpha=0.3)
+    for k, name in reversed(list(enumerate(disp))):
+        amp = orbit.amplitude.get(name)
+        label = _label(traj, name) + (f", max |{name}| = {amp:.4g}" if amp is not None else "")
+        ax_d.plot(t, traj[name], lw=1.2, color=f"C{k}", label=label)
+    shaded = _shade_modes(ax_d, traj, shade)
+    ax_d.set_xlabel("t [s]")
+    ax_d.set_ylabel("displacement")
+    ax_d.set_title("displacements over one period" + (" (stick shaded)" if shaded else ""))
+    ax_d.set_xlim(t[0], t[-1])
+    ax_d.grid(alpha=0.3)
+    ax_d.legend(loc="best", fontsize=8, framealpha=0.9)
+
+    # Multipliers in the complex plane.
+    phi = np.linspace(0.0, 2.0 * np.pi, 361)
+    ax_m.plot(np.cos(phi), np.sin(phi), color="0.6", lw=0.8)
+    styles = {
+        "floquet": dict(marker="o", color="C3", label="Floquet"),
+        "neutral": dict(marker="s", color="C0", label="neutral (family of orbits)"),
+        "structural": dict(marker="x", color="0.4", label="structural (slave variable)"),
+    }
+    for kind, st in styles.items():
+        mu = np.array(
+            [m for m, k in zip(orbit.multipliers, orbit.multiplier_kinds, strict=True) if k == kind]
+        )
+        if mu.size:
+            ax_m.plot(mu.real, mu.imag, ls="none", ms=7, mfc="none", mew=1.5, **st)
+    fl = np.abs(orbit.floquet_multipliers)
+    extra = f"; max |mu| = {fl.max():.6g}" if fl.size else ""
+    ax_m.set_title(f"multipliers: {orbit.stability}{extra}")
+    ax_m.set_xlabel("Re mu")
+    ax_m.set_ylabel("Im mu")
+    ax_m.set_aspect("equal", adjustable="datalim")
+    ax_m.axhline(0.0, color="0.8", lw=0.6)
+    ax_m.axvline(0.0, color="0.8", lw=0.6)
+    ax_m.grid(alpha=0.3)
+    ax_m.legend(loc="upper right", fontsize=8, framealpha=0.9)
+
+    params = ", ".join(f"{k}={v:g}" for k, v in orbit.params.items())
+    fig.suptitle(
+        f"{system.title or system.name}: periodic orbit, T = {orbit.period:.6g} s, "
+        f"{orbit.transitions_per_period} switches per period\n{params}",
+        fontsize=10,
+    )
     path = Path(path)
     fig.savefig(path, dpi=110)
     return path

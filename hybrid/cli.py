@@ -1,9 +1,11 @@
-"""Command line: ``hybrid simulate MODEL ...`` and ``hybrid models``.
+"""Command line: ``hybrid simulate|orbit|frc MODEL ...`` and ``hybrid models``.
 
 Models are found by name among the installed ``hybrid.models`` entry points
 (the project's built-ins: absorber, isolator, coulomb) or given as the path of
-a model file (``.toml``). Bad input is reported in one line on stderr with
-exit code 2, a failed simulation with exit code 1; no tracebacks.
+a model file (``.toml``). Curves drawn over a frequency-response curve come
+from the ``hybrid.frc_overlays`` entry points, by model name. Bad input is
+reported in one line on stderr with exit code 2, before any integration; a
+failed simulation or a periodic orbit not found with exit code 1; no tracebacks.
 """
 
 from __future__ import annotations
@@ -16,12 +18,15 @@ from collections.abc import Sequence
 from importlib.metadata import entry_points
 from pathlib import Path
 
+import numpy as np
+
 from ._expr import ExpressionError
-from ._io import to_json, trajectory_summary, write_events_csv, write_trajectory_csv
+from ._io import to_json, trajectory_summary, write_events_csv, write_rows_csv, write_trajectory_csv
 from ._loader import load_system
 from ._options import SolverOptions
+from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
 from ._progress import ProgressBar
-from ._simulate import SimulationError, simulate
+from ._simulate import SimulationError, initial_state, simulate
 from ._system import HybridSystem, ModelError
 
 __all__ = ["main", "resolve_model"]
@@ -96,22 +101,45 @@ def _positive_float(text: str) -> float:
     return value
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text}")
-    return value
+def _int_at_least(lo: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {lo}, got {text}")
+        return value
+
+    return parse
 
 
-def _add_model_args(p: argparse.ArgumentParser) -> None:
+_positive_int = _int_at_least(1)
+_nonnegative_int = _int_at_least(0)
+
+
+def _add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
     p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
     p.add_argument("--preset", help="named parameter set of the model (default: `standard` if it has one)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    if omega:
+        p.add_argument(
+            "--omega", type=_positive_float, help="excitation frequency [rad/s] (sets parameter Omega)"
+        )
+
+
+def _add_tolerances(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--omega", type=_positive_float, help="excitation frequency [rad/s] (sets parameter Omega)"
+        "--rtol",
+        type=_positive_float,
+        default=ORBIT_OPTIONS.rtol,
+        help=f"relative tolerance (default {ORBIT_OPTIONS.rtol:g})",
+    )
+    p.add_argument(
+        "--atol",
+        type=_positive_float,
+        default=ORBIT_OPTIONS.atol,
+        help=f"absolute tolerance (default {ORBIT_OPTIONS.atol:g})",
     )
 
 
@@ -140,6 +168,46 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
     )
+
+    p = sub.add_parser("orbit", help="periodic orbit at one forcing frequency, with its Floquet multipliers")
+    _add_model_args(p)
+    p.add_argument(
+        "--x0", action="append", metavar="NAME=VALUE", help="initial guess of a variable (default 0)"
+    )
+    p.add_argument("--mode0", help="mode of the guess (default: the model's initial mode)")
+    p.add_argument(
+        "--transient",
+        type=_nonnegative_int,
+        default=10,
+        metavar="N",
+        help="forcing periods simulated from the guess before Newton's method (default 10)",
+    )
+    _add_tolerances(p)
+    p.add_argument(
+        "--samples-per-period", type=_positive_int, default=512, help="samples of the period (default 512)"
+    )
+    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--json", action="store_true", help="print the orbit as JSON on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+    p = sub.add_parser("frc", help="frequency-response curve: periodic orbits continued in Omega")
+    _add_model_args(p, omega=False)
+    p.add_argument(
+        "--omega-range",
+        nargs=2,
+        type=_positive_float,
+        metavar=("A", "B"),
+        help="range of Omega [rad/s] (default: 0.8 x lowest to 1.2 x highest natural frequency "
+        "of the initial mode linearised at rest)",
+    )
+    _add_tolerances(p)
+    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+    p.add_argument(
+        "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
+    )
+
     sub.add_parser("models", help="list the built-in models")
     return parser
 
@@ -169,11 +237,8 @@ def cmd_simulate(args) -> int:
     x0 = {n: 0.0 for n in system.variable_names}
     x0.update(_pairs(args.x0, "--x0"))
     options = SolverOptions(rtol=args.rtol, atol=args.atol)
-    out = Path(args.out if args.out is not None else Path("out") / system.name)
-    if preset:
-        _info(
-            f"model `{system.name}`, preset `{preset}`: " + ", ".join(f"{k}={v:g}" for k, v in params.items())
-        )
+    out = _output_dir(system, args)
+    _announce(system, preset, params)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
     kwargs = {"samples_per_period": args.samples_per_period, "include_events": True} if period else {}
     t0 = time.perf_counter()
@@ -221,14 +286,278 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def _announce(system: HybridSystem, preset: str | None, params: dict[str, float]) -> None:
+    if preset:
+        _info(
+            f"model `{system.name}`, preset `{preset}`: " + ", ".join(f"{k}={v:g}" for k, v in params.items())
+        )
+
+
+def _output_dir(system: HybridSystem, args) -> Path:
+    return Path(args.out if args.out is not None else Path("out") / system.name)
+
+
+def _unit(system: HybridSystem, name: str) -> str:
+    units = {v.name: v.unit for v in system.variables}
+    return units.get(name) or system.plot.get("units", {}).get(name, "")
+
+
+def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
+    """A readable summary of a periodic orbit (the stdout of ``hybrid orbit`` without ``--json``)."""
+    system = orbit.system
+    omega = orbit.params.get("Omega")
+    head = f"{system.name}" + (f", preset `{preset}`" if preset else "")
+    head += (f", Omega = {omega:g} rad/s" if omega is not None else "") + f": period T = {orbit.period:.9g} s"
+    lines = [head]
+    if not orbit.converged:
+        lines.append(f"  NO periodic orbit: {orbit.message}")
+        return "\n".join(lines)
+    lines.append(
+        f"  converged: residual {orbit.residual:.2g} after {orbit.iterations} Newton iterations, "
+        f"cond(I - M) = {orbit.condition:.3g}"
+    )
+    fl = np.abs(orbit.floquet_multipliers)
+    verdict = {
+        "stable": "stable (all Floquet multipliers inside the unit circle)",
+        "unstable": "UNSTABLE (a Floquet multiplier outside the unit circle)",
+        "neutral": "neutral (marginally stable: a multiplier on the unit circle)",
+    }.get(orbit.stability, orbit.stability)
+    lines.append(f"  stability: {verdict}" + (f", max |mu| = {fl.max():.9g}" if fl.size else ""))
+    seq = " -> ".join(orbit.mode_sequence)
+    lines.append(
+        f"  {orbit.transitions_per_period} switches per period; modes from t0 = {orbit.t0:.6g} s: {seq}"
+    )
+    if orbit.stick_fraction is not None:
+        lines.append(f"  fraction of the period stuck: {orbit.stick_fraction:.4f}")
+    lines.append("  multipliers (Re, Im, |mu|, kind):")
+    for mu, kind in zip(orbit.multipliers, orbit.multiplier_kinds, strict=True):
+        lines.append(f"    {mu.real:+.9f} {mu.imag:+.9f}i   |mu| = {abs(mu):.9f}   {kind}")
+    lines.append("  amplitudes (max |x| and half peak-to-peak over the period):")
+    width = max(len(n) for n in orbit.amplitude)
+    for name, amp in orbit.amplitude.items():
+        unit = _unit(system, name)
+        lines.append(
+            f"    {name:{width}s}  {amp:.9g}  {orbit.half_peak_to_peak[name]:.9g}"
+            + (f" {unit}" if unit else "")
+        )
+    lines.append(f"  {orbit.message}")
+    return "\n".join(lines)
+
+
+def cmd_orbit(args) -> int:
+    system = resolve_model(args.model)
+    if system.period is None:
+        raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+    preset, params = _parameters(system, args)
+    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
+    system.mode(mode0)  # unknown mode -> ModelError
+    guess = {n: 0.0 for n in system.variable_names}
+    guess.update(_pairs(args.x0, "--x0"))
+    initial_state(system, guess, mode0)  # unknown or non-finite values -> ValueError
+    options = SolverOptions(rtol=args.rtol, atol=args.atol)
+    out = _output_dir(system, args)
+    _announce(system, preset, params)
+    t0 = time.perf_counter()
+    orbit = periodic_orbit(
+        system,
+        params,
+        guess,
+        mode0,
+        transient_periods=args.transient,
+        options=options,
+        samples_per_period=args.samples_per_period,
+    )
+    wall = time.perf_counter() - t0
+    summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}
+    summary["multiplier_moduli"] = [float(abs(z)) for z in orbit.multipliers]
+    summary["wall_time_s"] = wall
+    files: list[Path] = []
+    if orbit.converged:
+        out.mkdir(parents=True, exist_ok=True)
+        files.append(write_trajectory_csv(orbit.trajectory, out / "orbit.csv"))
+        if not args.no_plot:
+            from ._plot import plot_orbit  # matplotlib only when a figure is wanted
+
+            files.append(plot_orbit(orbit, out / "orbit.png"))
+        summary["files"] = [str(f) for f in files] + [str(out / "orbit.json")]
+        files.append(out / "orbit.json")
+        (out / "orbit.json").write_text(to_json(summary) + "\n")
+    print(to_json(summary) if args.json else _orbit_text(orbit, preset))
+    for f in files:
+        _info(f"wrote {f}")
+    if not orbit.converged:
+        _info(f"hybrid: no periodic orbit: {orbit.message}")
+        return 1
+    _info(f"periodic orbit in {wall:.2f} s")
+    return 0
+
+
+FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
+
+
+def frc_overlays(system: HybridSystem, params: dict[str, float], omega: np.ndarray) -> dict:
+    """Overlay curves of a model (``hybrid.frc_overlays`` entry point named like it), or ``{}``.
+
+    A failing overlay function is reported on stderr and drawn as nothing.
+    """
+    eps = {ep.name: ep for ep in entry_points(group=FRC_OVERLAY_GROUP)}
+    if system.name not in eps:
+        return {}
+    try:
+        curves = eps[system.name].load()(dict(params), omega)
+        return {
+            str(c): {
+                str(n): np.broadcast_to(np.asarray(v, dtype=float), omega.shape) for n, v in coords.items()
+            }
+            for c, coords in curves.items()
+        }
+    except Exception as exc:  # model code: report, do not stop the run
+        _info(
+            f"hybrid: warning: overlays of `{system.name}` failed ({type(exc).__name__}: {exc}); none drawn"
+        )
+        return {}
+
+
+def _frc_text(fr, preset: str | None) -> str:
+    """A readable summary of a frequency response (stdout of ``hybrid frc`` without ``--json``)."""
+    system = fr.system
+    par = fr.parameter
+    lo, hi = fr.p_range
+    lines = [
+        f"{system.name}"
+        + (f", preset `{preset}`" if preset else "")
+        + f": {par} from {lo:.6g} to {hi:.6g} rad/s",
+        "  natural frequencies of the linearised initial mode: "
+        + (", ".join(f"{w:.6g}" for w in fr.resonances) or "none")
+        + " rad/s",
+    ]
+    coords = list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    for k, b in enumerate(fr.branches):
+        if not b.points:
+            lines.append(f"  branch {k}: no point ({b.message})")
+            continue
+        p = b.p
+        stab = {s: b.stability.count(s) for s in dict.fromkeys(b.stability)}
+        lines.append(
+            f"  branch {k}: {len(p)} orbits, {par} {p[0]:.6g} -> {p[-1]:.6g}, "
+            + ", ".join(f"{n} {s}" for s, n in stab.items())
+            + (f"; {b.status}: {b.message}" if b.status != "completed" else "")
+        )
+        for name in coords:
+            a = b.amplitude(name)
+            i = int(np.argmax(a))
+            lines.append(f"    max |{name}| = {a[i]:.6g} at {par} = {p[i]:.6g}")
+    for row in fr.special_rows():
+        lines.append(
+            f"  {row['kind']} at {par} = {row[par]:.8g} (branch {row['branch']}, {row['stability']}): "
+            + row["description"]
+        )
+    for a, b in fr.gaps:
+        lines.append(f"  GAP: no periodic orbit computed for {par} in ({a:.8g}, {b:.8g})")
+    return "\n".join(lines)
+
+
+def cmd_frc(args) -> int:
+    from ._frc import default_range, frequency_response
+
+    system = resolve_model(args.model)
+    if system.period is None:
+        raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+    if "Omega" not in system.parameter_names:
+        raise UsageError(f"model `{system.name}` has no parameter `Omega` to continue in")
+    args.omega = None
+    preset, params = _parameters(system, args)
+    if args.omega_range is not None:
+        lo, hi = args.omega_range
+        if not lo < hi:
+            raise UsageError(f"`--omega-range A B` needs A < B, got {lo:g} {hi:g}")
+    else:
+        lo, hi = default_range(system, params)
+    options = SolverOptions(rtol=args.rtol, atol=args.atol)
+    out = _output_dir(system, args)
+    _announce(system, preset, params)
+    _info(f"continuation in Omega from {lo:.6g} to {hi:.6g} rad/s")
+    bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
+    t0 = time.perf_counter()
+    fr = frequency_response(system, params, (lo, hi), options=options, progress=bar)
+    bar(1.0)
+    wall = time.perf_counter() - t0
+
+    from ._plot_frc import zoom_windows
+
+    zooms = zoom_windows(fr)
+    grid = np.unique(
+        np.concatenate([np.linspace(lo, hi, 2001)] + [np.linspace(a, b, 801) for a, b, _ in zooms])
+    )
+    overlays = frc_overlays(system, params, grid)
+    out.mkdir(parents=True, exist_ok=True)
+    files = [write_rows_csv(fr.rows(), out / "frc.csv")]
+    special = fr.special_rows()
+    files.append(
+        write_rows_csv(
+            special,
+            out / "frc_special.csv",
+            None if special else ["branch", "row", "kind", "Omega", "stability", "description"],
+        )
+    )
+    ov_rows = [{"Omega": float(w)} for w in grid]
+    for curve, coords in overlays.items():
+        for name, values in coords.items():
+            for row, v in zip(ov_rows, values, strict=True):
+                row[f"{curve}: {name}"] = float(v)
+    files.append(write_rows_csv(ov_rows, out / "frc_overlays.csv"))
+    if not args.no_plot:
+        from ._plot_frc import plot_frc
+
+        files.append(plot_frc(fr, out / "frc.png", overlays=overlays, grid=grid))
+    summary = {
+        "model": system.name,
+        "preset": preset,
+        "parameters": {k: v for k, v in params.items() if k != "Omega"},
+        "omega_range": [lo, hi],
+        "natural_frequencies": [float(w) for w in fr.resonances],
+        "branches": [
+            {
+                "points": len(b.points),
+                "omega_start": float(b.p[0]) if b.points else None,
+                "omega_end": float(b.p[-1]) if b.points else None,
+                "status": b.status,
+                "message": b.message,
+            }
+            for b in fr.branches
+        ],
+        "special": special,
+        "gaps": [list(g) for g in fr.gaps],
+        "complete": fr.complete,
+        "overlays": list(overlays),
+        "wall_time_s": wall,
+        "files": [str(f) for f in files] + [str(out / "frc.json")],
+    }
+    (out / "frc.json").write_text(to_json(summary) + "\n")
+    files.append(out / "frc.json")
+    print(to_json(summary) if args.json else _frc_text(fr, preset))
+    for f in files:
+        _info(f"wrote {f}")
+    n = sum(len(b.points) for b in fr.branches)
+    _info(f"{n} periodic orbits in {wall:.1f} s")
+    if not fr.complete:
+        for m in fr.messages():
+            _info(f"hybrid: {m}")
+        return 1
+    return 0
+
+
+COMMANDS = {"models": cmd_models, "simulate": cmd_simulate, "orbit": cmd_orbit, "frc": cmd_frc}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hybrid`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        if args.command == "models":
-            return cmd_models(args)
-        return cmd_simulate(args)
+        return COMMANDS[args.command](args)
     except (UsageError, ModelError, ExpressionError, ValueError, TypeError) as exc:
         print(f"hybrid: error: {exc}", file=sys.stderr)
         return 2

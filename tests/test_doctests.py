@@ -4,10 +4,12 @@ import doctest
 
 import pytest
 
+import hybrid._linear
 import hybrid._simulate
 import hybrid._system
+import models.overlays
 
-MODULES = [hybrid._simulate, hybrid._system]
+MODULES = [hybrid._simulate, hybrid._system, hybrid._linear, models.overlays]
 
 
 @pytest.mark.parametrize("module", MODULES, ids=lambda m: m.__name__)

@@ -1,0 +1,139 @@
+"""Command line: `hybrid orbit` and `hybrid frc` (periodic orbits and frequency-response curves)."""
+
+import csv
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+import models
+from hybrid.cli import main
+from models.linear import stick_amplitudes
+
+
+def run(argv, capsys):
+    code = main(argv)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+ORBIT_KEYS = {
+    "omega",
+    "period",
+    "amplitude",
+    "half_peak_to_peak",
+    "multipliers",
+    "stable",
+    "transitions_per_period",
+    "mode_sequence",
+    "stick_fraction",
+    "converged",
+    "residual",
+    "parameters",
+}
+
+
+def test_orbit_pure_stick_matches_the_linear_closed_form(tmp_path, capsys):
+    code, out, err = run(["orbit", "absorber", "--omega", "0.5", "--json", "--out", str(tmp_path)], capsys)
+    assert code == 0, err
+    d = json.loads(out)
+    assert ORBIT_KEYS <= set(d)
+    assert d["omega"] == 0.5 and d["parameters"]["Omega"] == 0.5 and d["parameters"]["R"] == 0.5
+    assert d["converged"] and d["transitions_per_period"] == 0 and d["stick_fraction"] == 1.0
+    assert d["mode_sequence"] == ["stick"]
+    assert math.isclose(d["period"], 2 * math.pi / 0.5, rel_tol=1e-12)
+    a1, a2 = stick_amplitudes(models.absorber().preset("standard", Omega=0.5))
+    assert abs(d["amplitude"]["x1"] - abs(a1)) <= 1e-6 * abs(a1)
+    assert abs(d["amplitude"]["x2"] - abs(a2)) <= 1e-6 * abs(a2)
+    # undamped stuck response: every multiplier on the unit circle, marginally stable
+    mu = np.array([complex(re_, im) for re_, im in d["multipliers"]])
+    kinds = d["multiplier_kinds"]
+    assert np.allclose(np.abs(mu[[k != "structural" for k in kinds]]), 1.0, atol=1e-6)
+    assert d["stable"] is None and d["stability"] == "neutral"
+    rows = list(csv.reader((tmp_path / "orbit.csv").open()))
+    assert rows[0][:3] == ["t [s]", "mode", "x1 [m]"] and "H [N]" in rows[0]
+    t = np.array([float(r[0]) for r in rows[1:]])
+    assert math.isclose(t[-1] - t[0], d["period"], rel_tol=1e-12)
+    assert (tmp_path / "orbit.png").stat().st_size > 0
+    assert json.loads((tmp_path / "orbit.json").read_text())["converged"] is True
+
+
+def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
+    code, out, err = run(
+        ["orbit", "absorber", "--omega", "0.854", "--json", "--no-plot", "--out", str(tmp_path)], capsys
+    )
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["converged"] and d["residual"] < 1e-8
+    assert d["transitions_per_period"] == 4
+    assert d["mode_sequence"].count("stick") >= 2 and "slip+" in d["mode_sequence"]
+    assert 0 < d["stick_fraction"] < 1
+    assert d["stable"] is True
+    assert max(d["multiplier_moduli"]) < 1
+    assert d["amplitude"]["x1"] > 1 and d["half_peak_to_peak"]["x1"] > 1
+    assert not (tmp_path / "orbit.png").exists()
+
+
+def test_orbit_text_summary(tmp_path, capsys):
+    code, out, err = run(["orbit", "absorber", "--omega", "0.5", "--no-plot", "--out", str(tmp_path)], capsys)
+    assert code == 0, err
+    assert "stability: neutral" in out
+    assert re.search(r"\|mu\| = 1\.0000000", out)
+    assert re.search(r"x1\s+0\.01395348", out)
+    assert "model `absorber`, preset `standard`" in err
+
+
+def test_orbit_without_bounded_solution_exits_1(tmp_path, capsys):
+    # Coulomb oscillator forced at resonance with F/R = 5 > 4/pi: the response grows without bound.
+    code, out, err = run(
+        ["orbit", "coulomb", "--preset", "forced", "--omega", "1", "--json", "--out", str(tmp_path)], capsys
+    )
+    assert code == 1
+    d = json.loads(out)
+    assert d["converged"] is False
+    assert "no bounded periodic orbit" in d["message"]
+    assert "hybrid: no periodic orbit: " in err and "Traceback" not in err
+    assert not (tmp_path / "orbit.csv").exists()
+
+
+BAD = [
+    (["orbit", "absorber", "--omega", "0.5", "--set", "m1=0"], r"parameter `m1` .* must be > 0"),
+    (["orbit", "absorber", "--omega", "0.5", "--set", "mass=1"], r"no parameter `mass`"),
+    (["orbit", "absorber", "--omega", "0.5", "--preset", "fig9"], r"no preset `fig9`"),
+    (["orbit", "absorber", "--omega", "0.5", "--mode0", "glide"], r"no mode `glide`"),
+    (["orbit", "absorber", "--omega", "0.5", "--x0", "y=1"], r"unknown variable\(s\) y"),
+    (["orbit", "damper9000", "--omega", "0.5"], r"unknown model `damper9000`"),
+    (["frc", "absorber", "--omega-range", "1.2", "0.8"], r"needs A < B"),
+    (["frc", "absorber", "--set", "R=-1"], r"parameter `R` .* must be >= 0"),
+    (["frc", "coulomb", "--preset", "forced"], r"no natural frequency .*\(--omega-range A B\)"),
+]
+
+
+@pytest.mark.parametrize("argv,message", BAD)
+def test_bad_input_one_line_exit_2(argv, message, tmp_path, capsys):
+    code, out, err = run([*argv, "--out", str(tmp_path)], capsys)
+    assert code == 2, err
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hybrid: error: "), err
+    assert re.search(message, lines[0]), lines[0]
+    assert list(tmp_path.iterdir()) == []  # nothing integrated, nothing written
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["orbit", "absorber", "--omega", "0"],
+        ["orbit", "absorber", "--omega", "0.5", "--transient", "-1"],
+        ["orbit", "absorber", "--omega", "0.5", "--rtol", "0"],
+        ["frc", "absorber", "--omega-range", "0.5", "nan"],
+        ["frc", "absorber", "--omega-range", "0.5"],
+    ],
+)
+def test_bad_option_values_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    assert "Traceback" not in capsys.readouterr().err
