@@ -271,9 +271,7 @@ class Shooter:
 
     def monodromy(self, tr: Trajectory) -> np.ndarray:
         """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
-        M = self.sens.fundamental(tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values)
-        self.nfev = self.nfev  # sensitivity evaluations counted separately
-        return M
+        return self.sens.fundamental(tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values)
 
     def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
         if self._gauge is None:
