@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
+from matplotlib.ticker import MaxNLocator
 
 from ._frc import FrequencyResponse
 from ._plot import _new_figure
@@ -101,12 +102,16 @@ def _runs(stab: list[str]) -> list[tuple[int, int, str]]:
 def _draw_branches(ax, fr: FrequencyResponse, name: str, window=None) -> list[float]:
     """Draw every branch's ``max |name|`` (on its own piece of the range); return the amplitudes in ``window``."""
     inside: list[float] = []
+    lo, hi = fr.p_range
     for pc in fr.pieces:
+        # inner piece ends: a step past them belongs to the neighbour; the range's ends clip by the axes
+        a = pc.lo if pc.lo > lo else -np.inf
+        b_ = pc.hi if pc.hi < hi else np.inf
         for b in pc.branches:
             if not b.points:
                 continue
             p, amp = b.p, b.amplitude(name)
-            amp = np.where((p >= pc.lo) & (p <= pc.hi), amp, np.nan)  # a step past the piece's end
+            amp = np.where((p >= a) & (p <= b_), amp, np.nan)
             for i, j, s in _runs(b.stability):
                 st = STYLE.get(s)
                 if st is not None:
@@ -193,7 +198,7 @@ def plot_frc(
     units = {v.name: v.unit for v in system.variables}
     zooms = zoom_windows(fr)
     ncol = 1 + len(zooms)
-    fig = _new_figure((4.2 * ncol + 1.0, 3.4 * len(coords) + 1.6))
+    fig = _new_figure((max(4.2 * ncol + 1.0, 10.0), 3.4 * len(coords) + 1.6))
     gs = fig.add_gridspec(len(coords), ncol, width_ratios=[1.3] + [1.0] * len(zooms))
     lo, hi = fr.p_range
     par = fr.parameter
@@ -203,18 +208,24 @@ def plot_frc(
         amps = _draw_branches(ax, fr, name, (lo, hi))
         if grid is not None:
             _draw_overlays(ax, overlays, grid, name)
-        _draw_special(ax, fr, name, label=False)
+        _draw_special(ax, fr, name, label=not zooms)
         for a, b, _ in zooms:
             ax.axvspan(a, b, color="0.85", lw=0, zorder=0)
         for a, b in fr.gaps:
             ax.axvspan(a, b, color="C3", alpha=0.15, lw=0, zorder=0)
-        ax.set_yscale("log")
         pos = [a for a in amps if a > 0]
-        if pos:
+        if pos and max(pos) > 10.0 * min(pos):  # log axis where the amplitudes span decades
+            ax.set_yscale("log")
             ax.set_ylim(min(pos) / 3.0, max(pos) * 5.0)
+        elif amps:
+            ax.set_ylim(0.0, 1.2 * max(amps))
         ax.set_xlim(lo, hi)
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.ticklabel_format(axis="x", useOffset=False)
         ax.set_ylabel(ylab)
-        ax.set_title(f"{name}: {par} {lo:.4g} to {hi:.4g} rad/s (grey: zoomed)", fontsize=9)
+        ax.set_title(
+            f"{name}: {par} {lo:.6g} to {hi:.6g} rad/s" + (" (grey: zoomed)" if zooms else ""), fontsize=9
+        )
         ax.grid(alpha=0.3, which="both")
         for c, (a, b, w) in enumerate(zooms, start=1):
             az = fig.add_subplot(gs[r, c])
@@ -229,6 +240,7 @@ def plot_frc(
                 az.set_ylim(0.0, 1.2 * max(inside))
             az.axvline(w, color="0.5", lw=0.6, ls=":")
             az.set_title(f"{name} near the resonance at {w:.5g} rad/s", fontsize=9)
+            az.xaxis.set_major_locator(MaxNLocator(5))
             az.ticklabel_format(axis="x", useOffset=False)
             az.grid(alpha=0.3)
     for ax in fig.axes[-ncol:]:

@@ -84,10 +84,11 @@ def _choose_preset(system: HybridSystem, preset: str | None) -> str | None:
 def _parameters(system: HybridSystem, args) -> tuple[str | None, dict[str, float]]:
     preset = _choose_preset(system, args.preset)
     values = _pairs(args.set, "--set")
-    if args.omega is not None:
+    omega = getattr(args, "omega", None)  # `frc` has no --omega
+    if omega is not None:
         if "Omega" not in system.parameter_names:
             raise UsageError(f"model `{system.name}` has no parameter `Omega` for --omega")
-        values["Omega"] = args.omega
+        values["Omega"] = omega
     return preset, system.parameter_values(values, preset=preset)
 
 
@@ -467,7 +468,6 @@ def cmd_frc(args) -> int:
         raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
     if "Omega" not in system.parameter_names:
         raise UsageError(f"model `{system.name}` has no parameter `Omega` to continue in")
-    args.omega = None
     preset, params = _parameters(system, args)
     if args.omega_range is not None:
         lo, hi = args.omega_range

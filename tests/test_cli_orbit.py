@@ -7,10 +7,11 @@ import re
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 import models
 from hybrid.cli import main
-from models.linear import stick_amplitudes
+from models.linear import limit_amplitude, stick_amplitudes
 
 
 def run(argv, capsys):
@@ -137,3 +138,58 @@ def test_bad_option_values_exit_2(argv, capsys):
         main(argv)
     assert exc.value.code == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
+    # Upper end of the absorber's stick-slip band at the second resonance (about 6 s).
+    code, out, err = run(
+        ["frc", "absorber", "--omega-range", "1.1715", "1.1735", "--json", "--out", str(tmp_path)], capsys
+    )
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["complete"] and d["omega_range"] == [1.1715, 1.1735] and d["gaps"] == []
+    assert d["parameters"]["R"] == 0.5 and "Omega" not in d["parameters"]
+    for name in ("frc.csv", "frc_special.csv", "frc_overlays.csv", "frc.png", "frc.json"):
+        assert (tmp_path / name).stat().st_size > 0, name
+
+    rows = list(csv.DictReader((tmp_path / "frc.csv").open()))
+    cols = set(rows[0])
+    assert {
+        "branch",
+        "Omega",
+        "stability",
+        "transitions_per_period",
+        "stick_fraction",
+        "mode_sequence",
+    } <= cols
+    assert {"max_abs_multiplier", "amplitude_x1", "amplitude_x2", "half_peak_to_peak_x1"} <= cols
+    p = models.absorber().preset("standard")
+    w = np.array([float(r["Omega"]) for r in rows])
+    n_sw = np.array([int(r["transitions_per_period"]) for r in rows])
+    a1 = np.array([float(r["amplitude_x1"]) for r in rows])
+    stuck = n_sw == 0
+    assert stuck.any() and (n_sw == 4).any()
+    # stuck orbits are the linear stick response; stick-slip orbits lie above the limit A_L (Eq. 5)
+    assert np.allclose(a1[stuck], np.abs(stick_amplitudes(p, w[stuck])[0]), rtol=1e-6)
+    assert np.all(a1[~stuck] > limit_amplitude("absorber", p, w[~stuck]))
+    assert {r["stability"] for r in rows if r["transitions_per_period"] == "0"} == {"neutral"}
+    assert {r["stability"] for r in rows if r["transitions_per_period"] == "4"} == {"stable"}
+    # slip stops where the stick curve falls below A_L, bracketed by the branch
+    cross = brentq(
+        lambda x: abs(float(stick_amplitudes(p, x)[0])) - float(limit_amplitude("absorber", p, x)),
+        1.1715,
+        1.1735,
+    )
+    last_slip, first_stick = w[~stuck].max(), w[stuck].min()
+    assert last_slip < cross <= first_stick
+    special = list(csv.DictReader((tmp_path / "frc_special.csv").open()))
+    assert [s["kind"] for s in special] == ["mode-lost"]
+    assert last_slip < float(special[0]["Omega"]) <= first_stick
+
+    overlays = list(csv.DictReader((tmp_path / "frc_overlays.csv").open()))
+    stick_col = "linear stick system (Eqs. A.1-A.2): x1"
+    limit_col = "structural-change limit A_L (Eq. 5): x1"
+    assert {"Omega", stick_col, limit_col} <= set(overlays[0])
+    wo = np.array([float(r["Omega"]) for r in overlays])
+    assert wo[0] == 1.1715 and wo[-1] == 1.1735
+    assert np.allclose([float(r[limit_col]) for r in overlays], limit_amplitude("absorber", p, wo))
