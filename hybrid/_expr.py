@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import ast
 import math
-import operator
+import re
+import types
+import weakref
 from collections.abc import Callable, Mapping
 
 import numpy as np
@@ -32,7 +34,6 @@ __all__ = [
 ]
 
 MAX_EXPRESSION_LENGTH = 10_000
-MAX_DEPTH = 200
 
 
 class ExpressionError(ValueError):
@@ -40,32 +41,105 @@ class ExpressionError(ValueError):
 
 
 # ----------------------------------------------------------------------------
-# Expression tree
+# Expression tree: a DAG of interned nodes
 # ----------------------------------------------------------------------------
 class Expr:
-    """Immutable node of an expression tree (hashable, compared structurally)."""
+    """Immutable node of an expression DAG.
 
-    __slots__ = ("op", "args", "_hash")
+    Nodes are interned (hash-consed): building a node equal to an existing
+    one returns the existing object, so structurally equal sub-expressions are
+    one shared node, equality is identity and every walk over an expression
+    visits each distinct sub-expression once. Definitions that refer to each
+    other therefore expand in time and memory linear in the model's size,
+    never exponential (``a2 = a1*a1, a3 = a2*a2, ...`` is a chain of nodes).
+    The set of free symbols and the depth of each node are stored with it.
+    """
 
-    def __init__(self, op: str, args: tuple):
-        object.__setattr__(self, "op", op)
-        object.__setattr__(self, "args", args)
-        object.__setattr__(self, "_hash", hash((op, args)))
+    __slots__ = ("op", "args", "_hash", "free", "depth", "__weakref__")
+    _table: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+
+    def __new__(cls, op: str, args: tuple):
+        key = (op, args, math.copysign(1.0, args[0])) if op == "num" else (op, args)
+        hit = cls._table.get(key)
+        if hit is not None:
+            return hit
+        self = object.__new__(cls)
+        set_ = object.__setattr__
+        set_(self, "op", op)
+        set_(self, "args", args)
+        set_(self, "_hash", hash(key))
+        kids = _children_of(op, args)
+        if op == "sym":
+            free = frozenset(args)
+        elif not kids:
+            free = frozenset()
+        elif len(kids) == 1:
+            free = kids[0].free
+        else:
+            free = kids[0].free | kids[1].free
+        set_(self, "free", free)
+        set_(self, "depth", 1 + max((k.depth for k in kids), default=0))
+        cls._table[key] = self
+        return self
 
     def __setattr__(self, name, value):  # pragma: no cover - immutability guard
         raise AttributeError("Expr is immutable")
+
+    def __reduce__(self):
+        return (Expr, (self.op, self.args))
 
     def __hash__(self) -> int:
         return self._hash
 
     def __eq__(self, other) -> bool:
-        return isinstance(other, Expr) and self.op == other.op and self.args == other.args
+        return self is other
 
     def __repr__(self) -> str:
         return f"Expr({to_string(self)!r})"
 
     def __str__(self) -> str:
         return to_string(self)
+
+
+def _children_of(op: str, args: tuple) -> tuple:
+    if op in ("num", "sym"):
+        return ()
+    if op == "call":
+        return (args[1],)
+    return args
+
+
+def children(e: Expr) -> tuple:
+    """The sub-expressions of a node (operands; the argument of a call)."""
+    return _children_of(e.op, e.args)
+
+
+def postorder(roots) -> list[Expr]:
+    """Every distinct node reachable from ``roots``, each once, children before parents.
+
+    Iterative (no recursion limit on the depth of an expression).
+    """
+    seen: set[Expr] = set()
+    out: list[Expr] = []
+    stack: list[tuple[Expr, bool]] = [(r, False) for r in reversed(list(roots))]
+    while stack:
+        node, expanded = stack.pop()
+        if expanded:
+            out.append(node)
+            continue
+        if node in seen:
+            continue
+        seen.add(node)
+        stack.append((node, True))
+        for c in reversed(children(node)):
+            if c not in seen:
+                stack.append((c, False))
+    return out
+
+
+def count_nodes(roots) -> int:
+    """Number of distinct nodes of the DAG under ``roots``."""
+    return len(postorder(roots))
 
 
 def num(value: float) -> Expr:
@@ -233,6 +307,44 @@ def _dfunc(name: str, a: Expr) -> Expr:
 # ----------------------------------------------------------------------------
 _BINOPS = {ast.Add: add, ast.Sub: sub, ast.Mult: mul, ast.Div: div, ast.Pow: power}
 
+#: Limits of one expression, checked on the text before :func:`ast.parse` sees it.
+MAX_OPERATORS = 1000  # operators, calls and commas (a sum of N terms has N - 1)
+MAX_NESTING = 100  # depth of parentheses (calls included)
+MAX_NUMBER_LENGTH = 40  # characters of a number literal
+
+_TOKEN = re.compile(r"\d[\w.]*(?:[eE][+-]\d*)?|\.\d[\w.]*(?:[eE][+-]\d*)?|[A-Za-z_]\w*|\*\*|\S")
+
+
+def _prescan(text: str, where: str) -> None:
+    """Check the size limits of an expression on its text, in one linear pass."""
+    ops = depth = deepest = 0
+    for m in _TOKEN.finditer(text):
+        tok = m.group()
+        c = tok[0]
+        if c.isdigit() or (c == "." and len(tok) > 1):
+            if len(tok) > MAX_NUMBER_LENGTH:
+                raise ExpressionError(
+                    f"{where}: number literal {tok[:20]}... has {len(tok)} characters; "
+                    f"at most {MAX_NUMBER_LENGTH} are allowed (use an exponent, e.g. 1e30)"
+                )
+        elif c == "(" or c == "[" or c == "{":
+            depth += 1
+            deepest = max(deepest, depth)
+            if deepest > MAX_NESTING:
+                raise ExpressionError(
+                    f"{where}: parentheses nested deeper than {MAX_NESTING} levels; split the "
+                    "expression into named definitions"
+                )
+        elif c == ")" or c == "]" or c == "}":
+            depth -= 1
+        elif not (c.isalpha() or c == "_"):
+            ops += 1
+            if ops > MAX_OPERATORS:
+                raise ExpressionError(
+                    f"{where}: more than {MAX_OPERATORS} operators in one expression; split it "
+                    "into named definitions"
+                )
+
 
 def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], where: str) -> Expr:
     """Parse ``text`` into an expression tree, admitting only whitelisted constructs.
@@ -242,7 +354,9 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
     text : str
         The expression, in Python syntax restricted to numbers, names,
         ``+ - * / **``, unary ``-``/``+``, parentheses and the functions
-        :data:`FUNCTIONS`.
+        :data:`FUNCTIONS`; at most :data:`MAX_EXPRESSION_LENGTH` characters,
+        :data:`MAX_OPERATORS` operators, :data:`MAX_NESTING` levels of
+        parentheses and number literals of :data:`MAX_NUMBER_LENGTH` characters.
     known : collection of str
         Names the expression may use (variables, parameters, definitions,
         ``t``); :data:`CONSTANTS` are always allowed.
@@ -257,134 +371,174 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
     Raises
     ------
     ExpressionError
-        On a syntax error, a forbidden construct or an unknown name.
+        On a syntax error, a forbidden construct, an unknown name or a limit
+        exceeded (checked before :func:`ast.parse` runs).
     """
     if not isinstance(text, str):
         raise ExpressionError(f"{where}: expected an expression string, got {type(text).__name__} {text!r}")
     if len(text) > MAX_EXPRESSION_LENGTH:
-        raise ExpressionError(f"{where}: expression longer than {MAX_EXPRESSION_LENGTH} characters")
+        raise ExpressionError(
+            f"{where}: expression of {len(text)} characters; at most {MAX_EXPRESSION_LENGTH} are allowed"
+        )
     if not text.strip():
         raise ExpressionError(f"{where}: empty expression")
+    shown = text if len(text) <= 80 else text[:77] + "..."
+    _prescan(text, where)
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         col = f" at column {exc.offset}" if exc.offset else ""
-        raise ExpressionError(f"{where}: syntax error{col} in {text!r}") from None
+        raise ExpressionError(f"{where}: syntax error{col} in {shown!r}") from None
+    except (RecursionError, MemoryError):  # pragma: no cover - the prescan keeps below the parser's limits
+        raise ExpressionError(f"{where}: expression too deeply nested for the parser") from None
 
-    def walk(node: ast.AST, depth: int) -> Expr:
-        if depth > MAX_DEPTH:
-            raise ExpressionError(
-                f"{where}: expression nested deeper than {MAX_DEPTH} levels (a long sum counts one level per term)"
-            )
+    def leaf(node: ast.AST) -> Expr:
         if isinstance(node, ast.Constant):
             value = node.value
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ExpressionError(
-                    f"{where}: forbidden constant {value!r} in {text!r}; only real numbers are allowed"
+                    f"{where}: forbidden constant {value!r} in {shown!r}; only real numbers are allowed"
                 )
-            if not math.isfinite(float(value)):
-                raise ExpressionError(f"{where}: non-finite number in {text!r}")
-            return num(float(value))
+            try:
+                value = float(value)
+            except OverflowError:
+                raise ExpressionError(f"{where}: number too large for a float in {shown!r}") from None
+            if not math.isfinite(value):
+                raise ExpressionError(f"{where}: non-finite number in {shown!r}")
+            return num(value)
         if isinstance(node, ast.Name):
             if node.id in CONSTANTS:
                 return num(CONSTANTS[node.id])
             if node.id not in known:
-                allowed = ", ".join(sorted(known))
+                names = sorted(known)
+                allowed = ", ".join(names[:40]) + (f", ... ({len(names)} names)" if len(names) > 40 else "")
                 raise ExpressionError(
-                    f"{where}: unknown name `{node.id}` in {text!r}; known names: {allowed}, pi"
+                    f"{where}: unknown name `{node.id}` in {shown!r}; known names: {allowed}, pi"
                 )
             return sym(node.id)
+        raise AssertionError(node)  # pragma: no cover
+
+    def operands(node: ast.AST) -> list[ast.AST]:
+        """The sub-nodes to build first, after checking the node is allowed."""
+        if isinstance(node, ast.Constant | ast.Name):
+            return []
         if isinstance(node, ast.BinOp):
-            op = _BINOPS.get(type(node.op))
-            if op is None:
+            if type(node.op) not in _BINOPS:
                 hint = " (use ** for powers)" if isinstance(node.op, ast.BitXor) else ""
                 raise ExpressionError(
-                    f"{where}: forbidden operator `{type(node.op).__name__}` in {text!r}{hint}; "
+                    f"{where}: forbidden operator `{type(node.op).__name__}` in {shown!r}{hint}; "
                     "allowed: + - * / **"
                 )
-            return op(walk(node.left, depth + 1), walk(node.right, depth + 1))
+            return [node.left, node.right]
         if isinstance(node, ast.UnaryOp):
-            if isinstance(node.op, ast.USub):
-                return neg(walk(node.operand, depth + 1))
-            if isinstance(node.op, ast.UAdd):
-                return walk(node.operand, depth + 1)
-            raise ExpressionError(f"{where}: forbidden operator `{type(node.op).__name__}` in {text!r}")
+            if not isinstance(node.op, ast.USub | ast.UAdd):
+                raise ExpressionError(f"{where}: forbidden operator `{type(node.op).__name__}` in {shown!r}")
+            return [node.operand]
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.func.id not in _FUNC_FLOAT:
-                name = node.func.id if isinstance(node.func, ast.Name) else ast.dump(node.func)
+                name = node.func.id if isinstance(node.func, ast.Name) else ast.dump(node.func)[:60]
                 raise ExpressionError(
-                    f"{where}: call of `{name}` is not allowed in {text!r}; "
+                    f"{where}: call of `{name}` is not allowed in {shown!r}; "
                     f"allowed functions: {', '.join(FUNCTIONS)}"
                 )
             if node.keywords or len(node.args) != 1:
                 raise ExpressionError(
-                    f"{where}: `{node.func.id}` takes exactly one positional argument in {text!r}"
+                    f"{where}: `{node.func.id}` takes exactly one positional argument in {shown!r}"
                 )
-            return call(node.func.id, walk(node.args[0], depth + 1))
+            return [node.args[0]]
         raise ExpressionError(
-            f"{where}: forbidden construct `{type(node).__name__}` in {text!r}; only numbers, "
+            f"{where}: forbidden construct `{type(node).__name__}` in {shown!r}; only numbers, "
             f"names, + - * / **, parentheses and the functions {', '.join(FUNCTIONS)} are allowed"
         )
 
-    return walk(tree.body, 0)
+    # Iterative post-order walk (an expression may be a long flat sum: no recursion).
+    built: dict[int, Expr] = {}
+    stack: list[tuple[ast.AST, bool]] = [(tree.body, False)]
+    while stack:
+        node, ready = stack.pop()
+        if not ready:
+            subs = operands(node)
+            if not subs:
+                built[id(node)] = leaf(node)
+                continue
+            stack.append((node, True))
+            stack.extend((s, False) for s in reversed(subs))
+            continue
+        if isinstance(node, ast.BinOp):
+            out = _BINOPS[type(node.op)](built.pop(id(node.left)), built.pop(id(node.right)))
+        elif isinstance(node, ast.UnaryOp):
+            inner = built.pop(id(node.operand))
+            out = neg(inner) if isinstance(node.op, ast.USub) else inner
+        else:  # ast.Call
+            out = call(node.func.id, built.pop(id(node.args[0])))
+        built[id(node)] = out
+    return built[id(tree.body)]
 
 
 # ----------------------------------------------------------------------------
-# Tree utilities
+# Tree utilities (iterative, each distinct node visited once)
 # ----------------------------------------------------------------------------
-def to_string(e: Expr) -> str:
-    """Render an expression (fully parenthesised where needed)."""
-    op = e.op
-    if op == "num":
-        return repr(e.args[0])
-    if op == "sym":
-        return e.args[0]
-    if op == "neg":
-        return f"-({to_string(e.args[0])})"
-    if op == "call":
-        return f"{e.args[0]}({to_string(e.args[1])})"
-    sym_ = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}[op]
-    return f"({to_string(e.args[0])} {sym_} {to_string(e.args[1])})"
+_OPSYM = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
+
+
+def to_string(e: Expr, limit: int = 2000) -> str:
+    """Render an expression (fully parenthesised), cut after about ``limit`` characters.
+
+    A shared sub-expression is written out at each use, so the text of a DAG
+    can be far longer than the DAG: the cut keeps messages short.
+    """
+    parts: list[str] = []
+    size = 0
+    stack: list[object] = [e]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            parts.append(item)
+            size += len(item)
+        else:
+            op, args = item.op, item.args
+            if op == "num":
+                stack.append(repr(args[0]))
+            elif op == "sym":
+                stack.append(args[0])
+            elif op == "neg":
+                stack.extend([")", args[0], "-("])
+            elif op == "call":
+                stack.extend([")", args[1], f"{args[0]}("])
+            else:
+                stack.extend([")", args[1], f" {_OPSYM[op]} ", args[0], "("])
+        if size > limit:
+            return "".join(parts) + " ..."
+    return "".join(parts)
 
 
 def free_symbols(e: Expr) -> set[str]:
     """Names of the symbols an expression depends on."""
-    out: set[str] = set()
-    stack = [e]
-    while stack:
-        node = stack.pop()
-        if node.op == "sym":
-            out.add(node.args[0])
-        elif node.op == "call":
-            stack.append(node.args[1])
-        elif node.op != "num":
-            stack.extend(node.args)
-    return out
+    return set(e.free)
+
+
+def _rebuild(node: Expr, new_kids: list[Expr]) -> Expr:
+    op = node.op
+    if op == "neg":
+        return neg(new_kids[0])
+    if op == "call":
+        return call(node.args[0], new_kids[0])
+    return _REBUILD[op](new_kids[0], new_kids[1])
 
 
 def substitute(e: Expr, values: Mapping[str, Expr]) -> Expr:
     """Replace symbols by expressions (constants folded on the way)."""
-    cache: dict[Expr, Expr] = {}
-
-    def rec(node: Expr) -> Expr:
-        hit = cache.get(node)
-        if hit is not None:
-            return hit
-        op = node.op
-        if op == "num":
-            out = node
-        elif op == "sym":
-            out = values.get(node.args[0], node)
-        elif op == "neg":
-            out = neg(rec(node.args[0]))
-        elif op == "call":
-            out = call(node.args[0], rec(node.args[1]))
+    if not (e.free & values.keys()):
+        return e
+    out: dict[Expr, Expr] = {}
+    for node in postorder([e]):
+        if not (node.free & values.keys()):
+            out[node] = node
+        elif node.op == "sym":
+            out[node] = values[node.args[0]]
         else:
-            out = _REBUILD[op](rec(node.args[0]), rec(node.args[1]))
-        cache[node] = out
-        return out
-
-    return rec(e)
+            out[node] = _rebuild(node, [out[c] for c in children(node)])
+    return out[e]
 
 
 _REBUILD = {"add": add, "sub": sub, "mul": mul, "div": div, "pow": power}
@@ -392,50 +546,45 @@ _REBUILD = {"add": add, "sub": sub, "mul": mul, "div": div, "pow": power}
 
 def diff(e: Expr, name: str) -> Expr:
     """Exact partial derivative of an expression with respect to symbol ``name``."""
-    cache: dict[Expr, Expr] = {}
-
-    def rec(node: Expr) -> Expr:
-        hit = cache.get(node)
-        if hit is not None:
-            return hit
+    if name not in e.free:
+        return ZERO
+    d: dict[Expr, Expr] = {}
+    for node in postorder([e]):
         op = node.op
-        if op == "num":
+        if name not in node.free:
             out = ZERO
         elif op == "sym":
-            out = ONE if node.args[0] == name else ZERO
+            out = ONE
         elif op == "neg":
-            out = neg(rec(node.args[0]))
+            out = neg(d[node.args[0]])
         elif op == "add":
-            out = add(rec(node.args[0]), rec(node.args[1]))
+            out = add(d[node.args[0]], d[node.args[1]])
         elif op == "sub":
-            out = sub(rec(node.args[0]), rec(node.args[1]))
+            out = sub(d[node.args[0]], d[node.args[1]])
         elif op == "mul":
             a, b = node.args
-            out = add(mul(rec(a), b), mul(a, rec(b)))
+            out = add(mul(d[a], b), mul(a, d[b]))
         elif op == "div":
             a, b = node.args
-            da, db = rec(a), rec(b)
-            out = sub(div(da, b), div(mul(a, db), power(b, num(2.0))))
+            out = sub(div(d[a], b), div(mul(a, d[b]), power(b, num(2.0))))
         elif op == "pow":
             a, b = node.args
-            da, db = rec(a), rec(b)
+            da, db = d[a], d[b]
             if _is_num(db, 0.0):
                 out = mul(mul(b, power(a, sub(b, ONE))), da)
             else:
                 out = mul(node, add(mul(db, call("log", a)), div(mul(b, da), a)))
         elif op == "call":
             fname, a = node.args
-            out = mul(_dfunc(fname, a), rec(a))
+            out = mul(_dfunc(fname, a), d[a])
         else:  # pragma: no cover
             raise AssertionError(op)
-        cache[node] = out
-        return out
-
-    return rec(e)
+        d[node] = out
+    return d[e]
 
 
 # ----------------------------------------------------------------------------
-# Compilation to closures over a flat list of values
+# Compilation: straight-line Python functions generated from the DAG
 # ----------------------------------------------------------------------------
 def _real_pow(a: float, b: float) -> float:
     value = a**b
@@ -446,17 +595,96 @@ def _real_pow(a: float, b: float) -> float:
     return value
 
 
-_PYOP = {
-    "add": operator.add,
-    "sub": operator.sub,
-    "mul": operator.mul,
-    "div": operator.truediv,
-    "pow": _real_pow,
+_AST_BINOP = {"add": ast.Add, "sub": ast.Sub, "mul": ast.Mult, "div": ast.Div}
+#: The only names generated code can reach (no builtins).
+_NAMESPACE: dict[str, object] = {
+    "__builtins__": {},
+    "_real_pow": _real_pow,
+    **{f"_f_{n}": f for n, f in _FUNC_FLOAT.items()},
 }
 
 
+def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False) -> Callable:
+    """Compile expressions into one function ``f(v) -> tuple of float``.
+
+    The function is generated from the expression DAG, never from the
+    model's text: one local assignment per distinct operation node (shared
+    sub-expressions are computed once), symbols read as ``v[slot]``, numbers
+    as constants, functions from a fixed namespace without builtins. It is
+    built as a Python syntax tree and compiled; no string is evaluated.
+
+    Parameters
+    ----------
+    exprs : sequence of Expr
+        The expressions (their symbols must all have a slot).
+    slots : mapping of str to int
+        Position of each symbol in the sequence ``v`` passed to ``f``.
+    name : str
+        Name of the generated function (shown in tracebacks).
+    scalar : bool
+        Return the value of the single expression instead of a tuple.
+
+    Returns
+    -------
+    callable
+        ``f(v)`` returning a tuple with one float per expression (a float
+        with ``scalar=True``).
+    """
+    exprs = list(exprs)
+    for e in exprs:
+        missing = e.free - slots.keys()
+        if missing:
+            raise ExpressionError(f"symbol `{sorted(missing)[0]}` has no value at run time")
+    refs: dict[Expr, ast.expr] = {}
+    body: list[ast.stmt] = []
+
+    def ref(node: Expr) -> ast.expr:
+        return refs[node]
+
+    for node in postorder(exprs):
+        op, args = node.op, node.args
+        if op == "num":
+            refs[node] = ast.Constant(args[0])
+            continue
+        if op == "sym":
+            refs[node] = ast.Subscript(ast.Name("v", ast.Load()), ast.Constant(slots[args[0]]), ast.Load())
+            continue
+        if op == "neg":
+            value = ast.UnaryOp(ast.USub(), ref(args[0]))
+        elif op == "call":
+            value = ast.Call(ast.Name(f"_f_{args[0]}", ast.Load()), [ref(args[1])], [])
+        elif op == "pow":
+            a, b = args
+            if b.op == "num" and b.args[0] == 2.0:
+                value = ast.BinOp(ref(a), ast.Pow(), ast.Constant(2))
+            else:
+                value = ast.Call(ast.Name("_real_pow", ast.Load()), [ref(a), ref(b)], [])
+        else:
+            value = ast.BinOp(ref(args[0]), _AST_BINOP[op](), ref(args[1]))
+        local = f"_{len(body)}"
+        body.append(ast.Assign([ast.Name(local, ast.Store())], value))
+        refs[node] = ast.Name(local, ast.Load())
+    if scalar:
+        if len(exprs) != 1:
+            raise ValueError("scalar=True needs exactly one expression")
+        body.append(ast.Return(ref(exprs[0])))
+    else:
+        body.append(ast.Return(ast.Tuple([ref(e) for e in exprs], ast.Load())))
+    fdef = ast.FunctionDef(
+        name=name,
+        args=ast.arguments(posonlyargs=[], args=[ast.arg("v")], kwonlyargs=[], kw_defaults=[], defaults=[]),
+        body=body,
+        decorator_list=[],
+        returns=None,
+    )
+    module = ast.fix_missing_locations(ast.Module([fdef], type_ignores=[]))
+    code = compile(module, f"<hybrid {name}>", "exec")
+    fcode = next(c for c in code.co_consts if isinstance(c, types.CodeType))
+    return types.FunctionType(fcode, dict(_NAMESPACE), name)
+
+
 def compile_scalar(e: Expr, slots: Mapping[str, int], constants: Mapping[str, float]) -> Callable:
-    """Compile an expression into a closure ``f(v) -> float``.
+    """Compile an expression into a function ``f(v) -> float``.
 
     Parameters
     ----------
@@ -474,48 +702,15 @@ def compile_scalar(e: Expr, slots: Mapping[str, int], constants: Mapping[str, fl
         ``f(v)`` with ``v`` a list (or tuple) of floats.
     """
     e = substitute(e, {k: num(v) for k, v in constants.items()})
-    return _compile(e, slots)
-
-
-def _compile(e: Expr, slots: Mapping[str, int]) -> Callable:
-    op = e.op
-    if op == "num":
+    if e.op == "num":
         c = e.args[0]
         return lambda v: c
-    if op == "sym":
-        name = e.args[0]
-        if name not in slots:
-            raise ExpressionError(f"symbol `{name}` has no value at run time")
-        return operator.itemgetter(slots[name])
-    if op == "neg":
-        f = _compile(e.args[0], slots)
-        return lambda v: -f(v)
-    if op == "call":
-        fn = _FUNC_FLOAT[e.args[0]]
-        f = _compile(e.args[1], slots)
-        return lambda v: fn(f(v))
-    a, b = e.args
-    pyop = _PYOP[op]
-    # Specialisations for a constant or a plain symbol on either side.
-    if a.op == "num":
-        ca = a.args[0]
-        fb = _compile(b, slots)
-        return lambda v: pyop(ca, fb(v))
-    if b.op == "num":
-        cb = b.args[0]
-        fa = _compile(a, slots)
-        if op == "pow" and cb == 2.0:
-            return lambda v: fa(v) ** 2
-        return lambda v: pyop(fa(v), cb)
-    if a.op == "sym" and b.op == "sym":
-        for name in (a.args[0], b.args[0]):
-            if name not in slots:
-                raise ExpressionError(f"symbol `{name}` has no value at run time")
-        ia, ib = slots[a.args[0]], slots[b.args[0]]
-        return lambda v: pyop(v[ia], v[ib])
-    fa = _compile(a, slots)
-    fb = _compile(b, slots)
-    return lambda v: pyop(fa(v), fb(v))
+    if e.op == "sym":
+        if e.args[0] not in slots:
+            raise ExpressionError(f"symbol `{e.args[0]}` has no value at run time")
+        i = slots[e.args[0]]
+        return lambda v: v[i]
+    return compile_many([e], slots, scalar=True)
 
 
 # ----------------------------------------------------------------------------
@@ -660,12 +855,8 @@ def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
         out[0] = c
         return out
 
-    cache: dict[Expr, np.ndarray] = {}
-
-    def rec(node: Expr) -> np.ndarray:
-        hit = cache.get(node)
-        if hit is not None:
-            return hit
+    val: dict[Expr, np.ndarray] = {}
+    for node in postorder([e]):
         op = node.op
         if op == "num":
             out = const(node.args[0])
@@ -673,29 +864,27 @@ def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
             value = env[node.args[0]]
             out = value if isinstance(value, np.ndarray) else const(value)
         elif op == "neg":
-            out = -rec(node.args[0])
+            out = -val[node.args[0]]
         elif op == "add":
-            out = rec(node.args[0]) + rec(node.args[1])
+            out = val[node.args[0]] + val[node.args[1]]
         elif op == "sub":
-            out = rec(node.args[0]) - rec(node.args[1])
+            out = val[node.args[0]] - val[node.args[1]]
         elif op == "mul":
-            out = _jmul(rec(node.args[0]), rec(node.args[1]))
+            out = _jmul(val[node.args[0]], val[node.args[1]])
         elif op == "div":
-            out = _jdiv(rec(node.args[0]), rec(node.args[1]))
+            out = _jdiv(val[node.args[0]], val[node.args[1]])
         elif op == "pow":
             a, b = node.args
-            ja = rec(a)
+            ja = val[a]
             if b.op == "num" and float(b.args[0]).is_integer() and abs(b.args[0]) <= 1024:
                 out = _jpow_int(ja, int(b.args[0]))
             elif b.op == "num" and b.args[0] == 0.5:
                 out = _jsqrt(ja)
             else:
-                out = _jexp(_jmul(rec(b), _jlog(ja)))
+                out = _jexp(_jmul(val[b], _jlog(ja)))
         elif op == "call":
-            out = _jcall(node.args[0], rec(node.args[1]))
+            out = _jcall(node.args[0], val[node.args[1]])
         else:  # pragma: no cover
             raise AssertionError(op)
-        cache[node] = out
-        return out
-
-    return rec(e)
+        val[node] = out
+    return val[e]

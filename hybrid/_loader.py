@@ -53,13 +53,17 @@ Layout of a model file::
 
 from __future__ import annotations
 
+import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 
 from ._system import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
 
-__all__ = ["load_system", "system_from_dict"]
+__all__ = ["load_system", "system_from_dict", "MAX_FILE_BYTES"]
+
+#: Largest model file read [bytes] (checked before it is read; the shipped models are about 5 KB).
+MAX_FILE_BYTES = 1 << 20
 
 _TOP = {
     "model",
@@ -100,30 +104,62 @@ def load_system(path: str | Path) -> HybridSystem:
         names the file and the item.
     """
     path = Path(path)
-    if path.is_dir():
-        raise ModelError(f"model file {str(path)!r} is a directory")
-    if not path.is_file():
-        raise ModelError(f"model file {str(path)!r} does not exist")
+    name = str(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(f"model file {str(path)!r} is not valid TOML: {exc}") from None
+        st = path.stat()
+    except FileNotFoundError:
+        raise ModelError(f"model file {name!r} does not exist") from None
+    except OSError as exc:
+        raise ModelError(f"model file {name!r} cannot be read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise ModelError(f"model file {name!r} is a directory")
+    if not stat.S_ISREG(st.st_mode):
+        raise ModelError(f"model file {name!r} is not a regular file (a device, pipe or socket)")
+    if st.st_size > MAX_FILE_BYTES:
+        raise ModelError(f"model file {name!r} has {st.st_size} bytes; at most {MAX_FILE_BYTES} are allowed")
+    try:
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)  # the file may grow after the stat
+    except OSError as exc:
+        raise ModelError(f"model file {name!r} cannot be read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ModelError(f"model file {name!r} has more than {MAX_FILE_BYTES} bytes")
+    try:
+        text = raw.decode("utf-8-sig")  # a byte-order mark is allowed
     except UnicodeDecodeError:
-        raise ModelError(f"model file {str(path)!r} is not UTF-8 text") from None
+        raise ModelError(f"model file {name!r} is not UTF-8 text") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(f"model file {name!r} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ModelError(f"model file {name!r}: tables or arrays nested too deeply") from None
     try:
         return system_from_dict(data)
     except ModelError as exc:
         raise ModelError(f"{path.name}: {exc}") from None
 
 
+def _short(value: object, width: int = 60) -> str:
+    """``repr`` of a value from a file, cut to ``width`` characters for messages."""
+    text = repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def _key(name: object) -> str:
+    """A key from a file for a message: as it is if short printable text, else its cut ``repr``."""
+    if isinstance(name, str) and name.isprintable() and len(name) <= 64:
+        return name
+    return _short(name, 40)
+
+
 def _check_keys(table: Mapping, allowed: set[str], where: str) -> None:
     if not isinstance(table, Mapping):
-        raise ModelError(f"{where} must be a table, got {table!r}")
+        raise ModelError(f"{where} must be a table, got {_short(table)}")
     extra = set(table) - allowed
     if extra:
-        raise ModelError(
-            f"{where}: unknown key(s) {', '.join(sorted(extra))}; allowed: {', '.join(sorted(allowed))}"
-        )
+        shown = ", ".join(_key(k) for k in sorted(extra)[:5]) + (" ..." if len(extra) > 5 else "")
+        raise ModelError(f"{where}: unknown key(s) {shown}; allowed: {', '.join(sorted(allowed))}")
 
 
 def system_from_dict(data: Mapping) -> HybridSystem:
@@ -131,7 +167,7 @@ def system_from_dict(data: Mapping) -> HybridSystem:
     _check_keys(data, _TOP, "model file")
     for key in _TOP - {"transitions"}:
         if key in data and not isinstance(data[key], Mapping):
-            raise ModelError(f"[{key}] must be a table, got {type(data[key]).__name__} {data[key]!r}")
+            raise ModelError(f"[{key}] must be a table, got {type(data[key]).__name__} {_short(data[key])}")
     if "transitions" in data and not (
         isinstance(data["transitions"], list) and all(isinstance(t, Mapping) for t in data["transitions"])
     ):
@@ -142,22 +178,22 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         raise ModelError("[model] needs a `name`")
     for key in ("name", "title", "reference", "period", "initial_mode"):
         if key in model and not isinstance(model[key], str):
-            raise ModelError(f"[model] `{key}` must be a string, got {model[key]!r}")
+            raise ModelError(f"[model] `{key}` must be a string, got {_short(model[key])}")
     plot = data.get("plot", {})
     for key in ("displacements", "shade_modes"):
         value = plot.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ModelError(f"[plot] `{key}` must be a list of names, got {value!r}")
+            raise ModelError(f"[plot] `{key}` must be a list of names, got {_short(value)}")
     for key in ("units",):
         if key in plot and not isinstance(plot[key], Mapping):
             raise ModelError(f"[plot] `{key}` must be a table of names to units")
     variables = []
     for name, spec in data.get("variables", {}).items():
-        _check_keys(spec, _VAR, f"[variables.{name}]")
+        _check_keys(spec, _VAR, f"[variables.{_key(name)}]")
         variables.append(Variable(name, str(spec.get("unit", "")), str(spec.get("description", ""))))
     parameters = []
     for name, spec in data.get("parameters", {}).items():
-        _check_keys(spec, _PAR, f"[parameters.{name}]")
+        _check_keys(spec, _PAR, f"[parameters.{_key(name)}]")
         parameters.append(
             Parameter(
                 name,
@@ -168,7 +204,7 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         )
     modes = []
     for name, spec in data.get("modes", {}).items():
-        _check_keys(spec, _MODE, f"[modes.{name}]")
+        _check_keys(spec, _MODE, f"[modes.{_key(name)}]")
         modes.append(
             Mode(name, spec.get("derivatives", {}), spec.get("algebraic", {}), spec.get("definitions", {}))
         )
@@ -191,11 +227,11 @@ def system_from_dict(data: Mapping) -> HybridSystem:
     for key in ("quadratures", "outputs"):
         value = model.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ModelError(f"[model] `{key}` must be a list of names, got {value!r}")
+            raise ModelError(f"[model] `{key}` must be a list of names, got {_short(value)}")
     presets = {}
     for pname, values in data.get("presets", {}).items():
         if not isinstance(values, Mapping):
-            raise ModelError(f"[presets.{pname}] must be a table of parameter values")
+            raise ModelError(f"[presets.{_key(pname)}] must be a table of parameter values")
         presets[pname] = dict(values)
     return HybridSystem(
         name=str(model["name"]),

@@ -271,7 +271,9 @@ class Shooter:
 
     def monodromy(self, tr: Trajectory) -> np.ndarray:
         """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
-        return self.sens.fundamental(tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values)
+        return self.sens.fundamental(
+            tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values
+        )
 
     def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
         if self._gauge is None:

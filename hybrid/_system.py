@@ -32,14 +32,34 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from ._expr import Expr, ExpressionError, compile_scalar, free_symbols, parse, substitute
+from ._expr import Expr, ExpressionError, compile_scalar, count_nodes, free_symbols, parse, substitute
 
 __all__ = ["Variable", "Parameter", "Mode", "Transition", "HybridSystem", "ModelError"]
 
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-_MODE_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_+\-]*$")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
+_MODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_+\-]{0,63}")
+#: Model and preset names: they name output folders and files, so no path separators or dots.
+_MODEL_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]{0,63}")
+
+#: Size limits of a model (a model file is untrusted input: every limit has a clear error).
+MAX_VARIABLES = 200
+MAX_PARAMETERS = 1000
+MAX_MODES = 1000
+MAX_TRANSITIONS = 10_000
+MAX_DEFINITIONS = 10_000
+MAX_NODES = 200_000  # distinct operation nodes of all expressions of the model, definitions expanded
+MAX_TEXT = 500  # characters of a title, reference, unit, description or transition name
 _RESERVED = {"t", "pi"}
+_PLOT_KEYS = {"force", "velocity", "displacements", "shade_modes", "units"}
 _DOMAINS = ("real", "positive", "nonnegative")
+
+
+def _shown(name: object) -> str:
+    """A name for a message: in backticks if it is short printable text, else its cut ``repr``."""
+    if isinstance(name, str) and name.isprintable() and len(name) <= 64:
+        return f"`{name}`"
+    text = repr(name)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 class ModelError(ValueError):
@@ -310,7 +330,52 @@ class HybridSystem:
             prefix = f"model `{self.name}`: "
             raise ModelError(msg if msg.startswith(prefix) else prefix + msg) from None
 
+    def _validate_sizes_and_texts(self) -> None:
+        """Names that reach files, counts, and texts: checked before any expression is parsed."""
+        if not isinstance(self.name, str) or not _MODEL_NAME.fullmatch(self.name):
+            raise ModelError(
+                f"model name {self.name!r} is not allowed: 1 to 64 letters, digits, _ or -, starting "
+                "with a letter or _ (it names the output folder)"
+            )
+        pre = f"model `{self.name}`"
+        for what, items, limit in (
+            ("variables", self.variables, MAX_VARIABLES),
+            ("parameters", self.parameters, MAX_PARAMETERS),
+            ("modes", self.modes, MAX_MODES),
+            ("transitions", self.transitions, MAX_TRANSITIONS),
+        ):
+            if len(items) > limit:
+                raise ModelError(f"{pre}: {len(items)} {what}; at most {limit} are allowed")
+        n_defs = len(self.definitions) + sum(len(m.definitions) for m in self.modes if isinstance(m, Mode))
+        if n_defs > MAX_DEFINITIONS:
+            raise ModelError(f"{pre}: {n_defs} definitions; at most {MAX_DEFINITIONS} are allowed")
+        texts = [("title", self.title), ("reference", self.reference)]
+        for v in self.variables:
+            texts += [(f"unit of variable `{v.name}`", v.unit), (f"description of `{v.name}`", v.description)]
+        for p in self.parameters:
+            texts += [
+                (f"unit of parameter `{p.name}`", p.unit),
+                (f"description of `{p.name}`", p.description),
+            ]
+        for tr in self.transitions:
+            if isinstance(tr, Transition):
+                texts.append((f"name of transition {tr.source}->{tr.target}", tr.name))
+        for what, text in texts:
+            if not isinstance(text, str):
+                raise ModelError(f"{pre}: {what} must be a string, got {text!r}")
+            if len(text) > MAX_TEXT or not text.isprintable():
+                raise ModelError(
+                    f"{pre}: {what} {text[:40]!r} must be printable text (no newlines or control "
+                    f"characters) of at most {MAX_TEXT} characters"
+                )
+        for pname in self.presets:
+            if not isinstance(pname, str) or not _MODEL_NAME.fullmatch(pname):
+                raise ModelError(
+                    f"{pre}: preset name {pname!r} is not allowed: 1 to 64 letters, digits, _ or -"
+                )
+
     def _validate(self) -> None:
+        self._validate_sizes_and_texts()
         pre = f"model `{self.name}`"
         vnames = [v.name for v in self.variables]
         pnames = [p.name for p in self.parameters]
@@ -318,10 +383,16 @@ class HybridSystem:
             raise ModelError(f"{pre}: no variables")
         if not self.modes:
             raise ModelError(f"{pre}: no modes")
+        for kind, items in (("variable", self.variables), ("parameter", self.parameters)):
+            for it in items:
+                if not isinstance(it.name, str):
+                    raise ModelError(f"{pre}: {kind} name {it.name!r} is not a string")
         for kind, names in (("variable", vnames), ("parameter", pnames)):
             for n in names:
-                if not _NAME.match(n) or n in _RESERVED:
-                    raise ModelError(f"{pre}: invalid {kind} name `{n}` (letters, digits, _; not t or pi)")
+                if not _NAME.fullmatch(n) or n in _RESERVED:
+                    raise ModelError(
+                        f"{pre}: invalid {kind} name {_shown(n)} (1 to 64 letters, digits, _; not t or pi)"
+                    )
         for p in self.parameters:
             if p.domain not in _DOMAINS:
                 raise ModelError(f"{pre}: parameter `{p.name}` has domain {p.domain!r}; allowed: {_DOMAINS}")
@@ -336,14 +407,14 @@ class HybridSystem:
                     raise ModelError(f"{pre}: name `{n}` is both a {seen[n]} and a {kind}")
                 seen[n] = kind
         for n in self.definitions:
-            if not _NAME.match(n) or n in _RESERVED:
-                raise ModelError(f"{pre}: invalid definition name `{n}`")
+            if not _NAME.fullmatch(n) or n in _RESERVED:
+                raise ModelError(f"{pre}: invalid definition name {_shown(n)} (1 to 64 letters, digits, _)")
         for m in self.modes:
             if not isinstance(m, Mode):
                 raise ModelError(f"{pre}: modes must be Mode objects, got {m!r}")
         mnames = [m.name for m in self.modes]
         for m in self.modes:
-            if not _MODE_NAME.match(m.name):
+            if not isinstance(m.name, str) or not _MODE_NAME.fullmatch(m.name):
                 raise ModelError(f"{pre}: invalid mode name {m.name!r}")
         if len(set(mnames)) != len(mnames):
             raise ModelError(f"{pre}: duplicate mode names in {mnames}")
@@ -373,8 +444,8 @@ class HybridSystem:
                         f"{pre}: {where} gives an equation for unknown variable `{n}`; variables: {', '.join(vnames)}"
                     )
             for n in m.definitions:
-                if n in vnames or n in pnames or not _NAME.match(n) or n in _RESERVED:
-                    raise ModelError(f"{pre}: {where}: invalid definition name `{n}`")
+                if n in vnames or n in pnames or not _NAME.fullmatch(n) or n in _RESERVED:
+                    raise ModelError(f"{pre}: {where}: invalid definition name {_shown(n)}")
             derivs = {**self.equations, **m.derivatives}
             for n in m.algebraic:  # a slave variable of this mode drops its shared derivative
                 derivs.pop(n, None)
@@ -437,6 +508,16 @@ class HybridSystem:
                     raise ModelError(f"{pre}: transition `{tr.name}` resets unknown variable `{n}`")
                 resets[n] = md["expand"](parse(r, known, f"{pre}: reset of `{n}` in transition `{tr.name}`"))
             trans.append({"guard": g, "reset": resets})
+        roots = [td["guard"] for td in trans] + [e for td in trans for e in td["reset"].values()]
+        for md in mode_data.values():
+            roots += list(md["derivatives"].values()) + list(md["algebraic"].values())
+            roots += [md["defs"][o] for o in self.outputs if o in md["defs"]]
+        n_nodes = count_nodes(roots)
+        if n_nodes > MAX_NODES:
+            raise ModelError(
+                f"{pre}: its expressions, definitions expanded, have {n_nodes} distinct operations; "
+                f"at most {MAX_NODES} are allowed"
+            )
         # Quadratures must not feed back into the dynamics or the guards.
         qs = set(self.quadratures)
         if qs:
@@ -450,14 +531,30 @@ class HybridSystem:
                 if free_symbols(td["guard"]) & qs:
                     raise ModelError(f"{pre}: guard of transition `{tr.name}` depends on a quadrature")
         for role, n in self.energy.items():
+            if not isinstance(n, str):
+                raise ModelError(f"{pre}: energy `{role}` must be a name, got {n!r}")
             if role not in ("input", "dissipated", "mechanical"):
                 raise ModelError(
                     f"{pre}: energy role `{role}` unknown; allowed: input, dissipated, mechanical"
                 )
             if n not in vnames and n not in self.outputs:
                 raise ModelError(f"{pre}: energy `{role}` = `{n}` is neither a variable nor an output")
+        unknown = set(self.plot) - _PLOT_KEYS
+        if unknown:
+            raise ModelError(
+                f"{pre}: [plot] has unknown key(s) {', '.join(sorted(map(str, unknown)))}; "
+                f"allowed: {', '.join(sorted(_PLOT_KEYS))}"
+            )
+        units = self.plot.get("units", {})
+        if not isinstance(units, Mapping) or not all(
+            isinstance(k, str) and isinstance(u, str) and len(u) <= MAX_TEXT and u.isprintable()
+            for k, u in units.items()
+        ):
+            raise ModelError(f"{pre}: [plot] `units` must map names to printable unit strings")
         for key in ("force", "velocity"):
             n = self.plot.get(key)
+            if n is not None and not isinstance(n, str):
+                raise ModelError(f"{pre}: plot `{key}` must be a name, got {n!r}")
             if n is not None and n not in vnames and n not in self.outputs:
                 raise ModelError(f"{pre}: plot `{key}` = `{n}` is neither a variable nor an output")
         for n in self.plot.get("displacements", ()):
@@ -508,7 +605,7 @@ class HybridSystem:
                 raise ModelError(f"{pre}: orbit gauge {gauge!r} depends on a quadrature")
             self._set_cache("gauge", g)
         sm = self.orbit.get("stick_modes", ())
-        if isinstance(sm, str) or not all(isinstance(m, str) for m in sm):
+        if not isinstance(sm, list | tuple) or not all(isinstance(m, str) for m in sm):
             raise ModelError(f"{pre}: [orbit] `stick_modes` must be a list of mode names, got {sm!r}")
         for m in sm:
             if m not in mode_data:
@@ -524,28 +621,19 @@ class HybridSystem:
     def _parse_definitions(
         defs: Mapping[str, str], known: set[str], outer: Mapping[str, Expr], what: str
     ) -> dict[str, Expr]:
+        """Parse ``defs`` and expand them over each other and ``outer`` (already expanded).
+
+        Each definition is expanded once, in dependency order, by one
+        substitution of the already expanded ones: linear in the size of the
+        definitions (shared sub-expressions stay shared, see :class:`Expr`).
+        Returns ``outer`` updated with the expanded ``defs``.
+        """
         known = known | set(defs) | set(outer)
         raw = {n: parse(text, known, f"{what} `{n}`") for n, text in defs.items()}
-        # Detect cycles among the new definitions.
-        state: dict[str, int] = {}
-
-        def visit(n: str, path: list[str]) -> None:
-            if state.get(n) == 2:
-                return
-            if state.get(n) == 1:
-                raise ExpressionError(f"{what}s form a cycle: {' -> '.join(path + [n])}")
-            state[n] = 1
-            for d in free_symbols(raw[n]):
-                if d in raw:
-                    visit(d, path + [n])
-            state[n] = 2
-
-        for n in raw:
-            visit(n, [])
-        out = dict(outer)
-        out.update(raw)
-        exp = _Expander(out)
-        return {n: exp(e) for n, e in out.items()}
+        env = dict(outer)
+        for n in _dependency_order(raw, what):
+            env[n] = substitute(raw[n], env)
+        return env
 
     # ------------------------------------------------------------------
     @property
@@ -640,15 +728,46 @@ class HybridSystem:
 
 
 class _Expander:
-    """Substitute definitions (already fully expanded) into an expression."""
+    """Substitute definitions (already fully expanded) into an expression: one pass."""
 
     def __init__(self, defs: Mapping[str, Expr]):
         self.defs = defs
 
     def __call__(self, e: Expr) -> Expr:
-        # Definitions may refer to others; iterate to a fixed point (cycles rejected earlier).
-        for _ in range(64):
-            if not (free_symbols(e) & set(self.defs)):
-                return e
-            e = substitute(e, self.defs)
-        raise ModelError("definitions nest too deeply")  # pragma: no cover
+        return substitute(e, self.defs)
+
+
+def _dependency_order(raw: Mapping[str, Expr], what: str) -> list[str]:
+    """Definition names, each after the definitions it uses (iterative depth-first search).
+
+    Raises
+    ------
+    ExpressionError
+        If the definitions form a cycle (named in the message).
+    """
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+    order: list[str] = []
+    for root in raw:
+        if root in state:
+            continue
+        state[root] = 1
+        path = [root]
+        stack = [iter(sorted(raw[root].free & raw.keys()))]
+        while stack:
+            nxt = next(stack[-1], None)
+            if nxt is None:
+                stack.pop()
+                done = path.pop()
+                state[done] = 2
+                order.append(done)
+                continue
+            s = state.get(nxt)
+            if s == 1:
+                cycle = path[path.index(nxt) :] + [nxt]
+                raise ExpressionError(f"{what}s form a cycle: {' -> '.join(cycle)}")
+            if s == 2:
+                continue
+            state[nxt] = 1
+            path.append(nxt)
+            stack.append(iter(sorted(raw[nxt].free & raw.keys())))
+    return order

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -295,7 +296,32 @@ def _announce(system: HybridSystem, preset: str | None, params: dict[str, float]
 
 
 def _output_dir(system: HybridSystem, args) -> Path:
-    return Path(args.out if args.out is not None else Path("out") / system.name)
+    """The output folder, created and checked writable before any computation.
+
+    ``--out`` if given, else ``out/<model name>``; the model name is checked
+    at load time (letters, digits, ``_`` and ``-`` only), and the folder must
+    still lie inside ``out/``, so a model file cannot direct output elsewhere.
+    """
+    if args.out is None:
+        out = Path("out") / system.name
+        if (
+            out.resolve().parent != Path("out").resolve()
+        ):  # pragma: no cover - model names are checked when the model is built
+            raise UsageError(f"model name {system.name!r} does not name a folder inside out/")
+    else:
+        if not args.out.strip():
+            raise UsageError("`--out` needs a folder path, got an empty string")
+        out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"`--out {out}`: exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".hybrid-write-test-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise UsageError(f"output folder {str(out)!r} cannot be written: {exc.strerror or exc}") from None
+    return out
 
 
 def _unit(system: HybridSystem, name: str) -> str:

@@ -75,10 +75,42 @@ def test_unknown_name_message_lists_the_known_names():
 def test_parse_rejects_non_strings_too_long_and_too_deep():
     with pytest.raises(ExpressionError, match=r"expected an expression string, got int 3"):
         parse(3, KNOWN, WHERE)
-    with pytest.raises(ExpressionError, match=r"longer than 10000 characters"):
+    with pytest.raises(ExpressionError, match=r"expression of 10003 characters; at most 10000 are allowed"):
         parse("x+" * 5001 + "x", KNOWN, WHERE)
-    with pytest.raises(ExpressionError, match=r"nested deeper than 200 levels"):
-        parse("-" * 250 + "x", KNOWN, WHERE)
+
+
+# Issue 13: each limit is checked on the text before ast.parse (whose own limits give
+# RecursionError / MemoryError tracebacks: a sum of 3000 terms, 3000 unary minuses, 3000 powers).
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("+".join(["x"] * 3000), r"more than 1000 operators in one expression"),
+        ("-" * 3000 + "x", r"more than 1000 operators"),
+        ("x" + "**x" * 3000, r"more than 1000 operators"),
+        ("(" * 150 + "x" + ")" * 150, r"parentheses nested deeper than 100 levels"),
+        ("sin(" * 101 + "x" + ")" * 101, r"parentheses nested deeper than 100 levels"),
+        ("1" * 401, r"number literal 1111.* has 401 characters; at most 40"),
+        ("x + 0." + "0" * 60 + "1", r"number literal .* at most 40"),
+    ],
+)
+def test_parse_limits_are_checked_before_the_parser(text, match):
+    with pytest.raises(ExpressionError, match=match) as info:
+        parse(text, KNOWN, WHERE)
+    assert str(info.value).startswith(WHERE + ":")
+
+
+def test_long_flat_sums_and_chains_within_the_limits_parse_without_recursion():
+    # 1000 terms / 999 unary minuses: an AST 1000 levels deep, walked iteratively
+    e = parse("+".join(["x"] * 1000), KNOWN, WHERE)
+    assert compile_scalar(e, {"x": 0}, {})([0.5]) == 500.0
+    assert compile_scalar(parse("-" * 999 + "x", KNOWN, WHERE), {"x": 0}, {})([2.0]) == -2.0
+    assert diff(e, "x") == parse("1000", set(), WHERE)
+
+
+def test_number_literals_up_to_the_limit_are_exact_floats():
+    assert parse("1" + "0" * 39, set(), WHERE) == parse("1e39", set(), WHERE)
+    with pytest.raises(ExpressionError, match=r"non-finite number"):
+        parse("1e999", KNOWN, WHERE)
 
 
 def test_parse_folds_constants_and_knows_pi():
