@@ -658,13 +658,17 @@ def stability(eigenvalues: ArrayLike, tol: float = 1e-12) -> str:
 # --------------------------------------------------------------------------------------------
 
 
-def _branches(eq: ModalEquation, A: NDArray[np.float64], printed: bool):
-    """eta of the two branches of Eq. (32) at amplitudes A (nan where the root is imaginary)."""
+def _branches(eq: ModalEquation, A: NDArray[np.float64], printed: bool, a_max: float = math.nan):
+    """eta of the two branches of Eq. (32) at amplitudes A (nan where the root is imaginary).
+
+    The radicand is exactly zero at ``A = a_max``; it is set so there (its rounding error
+    would otherwise be amplified by the square root).
+    """
     zc, zs, _, _ = _zeta(eq, A, printed)
     eps = eq.nd.eps
     ff2 = (eq.Fc * eq.nd.f) ** 2
     disc = ff2 - 4.0 * zc**2 * eq.eta_i**2
-    disc = np.where((disc < 0.0) & (disc > -1e-13 * ff2), 0.0, disc)  # round-off at A_max
+    disc = np.where(((disc < 0.0) & (disc > -1e-13 * ff2)) | (A == a_max), 0.0, disc)
     root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
     centre = eq.eta_i + eps * zs
     half = eps * root / (2.0 * A * eq.eta_i)
@@ -937,7 +941,8 @@ def frequency_response(
         Aa = Aa[Aa <= hi]
     else:
         Aa = np.asarray(A, dtype=float).reshape(-1)
-    elo, ehi = _branches(eq, Aa, printed)
+    peak = amps.A_max if not printed else math.nan
+    elo, ehi = _branches(eq, Aa, printed, peak)
     stab = []
     for etas in (elo, ehi):
         row = []
