@@ -7,9 +7,10 @@ import pytest
 import hybrid._linear
 import hybrid._simulate
 import hybrid._system
+import models.averaging
 import models.overlays
 
-MODULES = [hybrid._simulate, hybrid._system, hybrid._linear, models.overlays]
+MODULES = [hybrid._simulate, hybrid._system, hybrid._linear, models.overlays, models.averaging]
 
 
 @pytest.mark.parametrize("module", MODULES, ids=lambda m: m.__name__)
