@@ -451,14 +451,15 @@ def zeta(
         Small parameter.
     printed : bool, optional
         Isolator mode 2: printed D.7, whose ``zeta_w2,sin`` has ``-2/(...)`` in place of
-        ``-1/(...)`` (erratum 11); also uses ``r21`` of the printed Eq. (23).
+        ``-1/(...)`` (erratum 11). (D.3-D.9 use ``r12``; the ``r21`` of the printed Eq. (23) is
+        shown by :func:`modal_equation` only.)
 
     Returns
     -------
     zeta_cos, zeta_sin : ndarray
         [-], with the shape of ``A``.
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     zc, zs, _, _ = _zeta(eq, np.asarray(A, dtype=float), printed)
     return zc, zs
 
@@ -509,7 +510,7 @@ def standard_form_rhs(
     dA, dpsi, dphi : float
         Derivatives with respect to ``tau``.
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     et = eq.nd.eta if eta is None else float(eta)
     force = eps * eq.Fc * eq.nd.f * math.sin(phi - psi)
     fric = eq.Wc * w
@@ -564,15 +565,15 @@ def averaged_rhs(
         Small parameter.
     printed : bool, optional
         As printed: prefactor ``eps/eta_i`` in place of ``eps`` (erratum 9; same fixed points and
-        stability, slow time scaled by ``1/eta_i``), and the printed D.7 / Eq. (23) for the
-        isolator's mode 2 (errata 5, 11).
+        stability, slow time scaled by ``1/eta_i``), and the printed D.7 for the isolator's
+        mode 2 (erratum 11).
 
     Returns
     -------
     dA, dpsi : ndarray
         ``dA/dtau`` [m], ``dpsi/dtau`` [rad].
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     et = eq.nd.eta if eta is None else float(eta)
     A = np.asarray(A, dtype=float)
     psi = np.asarray(psi, dtype=float)
@@ -614,7 +615,7 @@ def averaged_jacobian(
     ndarray, shape (2, 2)
         [1/1, m; 1/m, 1] per unit ``tau``.
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     _, _, dzc, dzs = _zeta(eq, np.asarray([A], dtype=float), printed)
     ff = eq.Fc * eq.nd.f
     e = eq.eta_i
@@ -726,7 +727,7 @@ def characteristic_amplitudes(
     -------
     CharacteristicAmplitudes
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     nd = eq.nd
     rho, kap, f = nd.rho, nd.kappa, nd.f
     wr = eq.Wc / eq.r
@@ -769,7 +770,7 @@ def rho_min(
     float
         ``rho_min`` [m/eps]; :func:`breakaway_force` converts it to ``R_min`` [N].
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     G = eq.Fc if printed else abs(eq.Fc)
     return float(np.pi * G * eq.nd.f / (4.0 * eq.Wc))
 
@@ -924,13 +925,13 @@ def frequency_response(
     window : float, optional
         Relative half-width in ``eta`` at which the default grid starts.
     printed : bool, optional
-        Evaluate with the printed ``zeta`` (isolator mode 2, erratum 11) and coefficient (erratum 5).
+        Evaluate with the printed ``zeta`` of D.7 (isolator mode 2, erratum 11).
 
     Returns
     -------
     FrequencyResponse
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     amps = characteristic_amplitudes(model, params, mode, eps, printed=False)
     if A is None:
         lo = eps * abs(eq.Fc) * eq.nd.f / (2.0 * eq.eta_i * window * eq.eta_i)
@@ -1019,7 +1020,7 @@ def fixed_points(
     list of FixedPoint
         Sorted by ``A``.
     """
-    eq = modal_equation(model, params, mode, eps, printed)
+    eq = modal_equation(model, params, mode, eps)  # D.3-D.9 use r12 even as printed
     et = eq.nd.eta if eta is None else float(eta)
     amps = characteristic_amplitudes(model, params, mode, eps)
     zs_inf = abs(eq.Wc * eq.nd.kappa * eq.r / (2.0 * eq.eta_i))  # |zeta_sin| <= its limit a -> inf
