@@ -183,8 +183,8 @@ class Recorder:
         Caps on the samples held in memory and on all samples of the run;
         exceeding one raises :class:`SampleCapReached` (a sink's kept window
         is cut to ``max_kept`` instead).
-    block : int
-        Samples per block.
+    block : int, optional
+        Samples per block (default :data:`BLOCK`).
     """
 
     def __init__(
@@ -196,7 +196,7 @@ class Recorder:
         keep_last: float = 0.0,
         max_kept: int = MAX_SAMPLES,
         max_total: int = MAX_STREAMED_SAMPLES,
-        block: int = BLOCK,
+        block: int | None = None,
     ):
         self.mode_names = np.array(list(mode_names), dtype=object)
         self.evaluate = evaluate
@@ -204,7 +204,7 @@ class Recorder:
         self.keep_last = float(keep_last)
         self.max_kept = max_kept
         self.max_total = max_total if sink is not None else min(max_total, max_kept)
-        self.block = block
+        self.block = block = BLOCK if block is None else block
         self._t = np.empty(block)
         self._y = np.empty((block, n_vars))
         self._m = np.empty(block, dtype=np.int32)

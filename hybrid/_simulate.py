@@ -248,7 +248,7 @@ def run_compiled(
     atol = options.atol_vector(cs.system.variable_names)
     run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
     _check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
-    recorder = Recorder(len(cs.names), [m.name for m in cs.modes], run.outputs, sink, keep_last)
+    recorder = Recorder(len(cs.names), [m.name for m in cs.modes], run.outputs, sink, keep_last, MAX_SAMPLES)
     return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
 
 

@@ -33,7 +33,7 @@ from ._loader import load_system
 from ._options import SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
 from ._progress import ProgressBar
-from ._record import Envelope, Sink, Tee
+from ._record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
 from ._simulate import SimulationError, initial_state, simulate
 from ._system import HybridSystem, ModelError
 
@@ -278,6 +278,11 @@ def cmd_simulate(args) -> int:
         if period is None:
             raise UsageError(f"model `{system.name}` has no forcing period: give --t-end")
         t_end = (args.periods if args.periods is not None else 200.0) * period
+    if period and t_end / period * spp > MAX_STREAMED_SAMPLES:
+        raise UsageError(
+            f"{t_end / period:.6g} periods at {spp} samples per period make more than {MAX_STREAMED_SAMPLES} "
+            "samples, the most a run may write: shorten the run or lower --samples-per-period"
+        )
     x0 = {n: 0.0 for n in system.variable_names}
     x0.update(_pairs(args.x0, "--x0"))
     options = SolverOptions(rtol=args.rtol, atol=args.atol)
