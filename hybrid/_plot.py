@@ -62,7 +62,9 @@ def plot_trajectory(
     history : Envelope, optional
         Min/max envelope of the displacements over the whole run (recorded
         while a streamed run went on), drawn in the whole-run panel instead of
-        the trajectory's samples.
+        the trajectory's samples: as the line through the extrema, or, with
+        more than 8 samples per bucket, as the band between them (rendering a
+        dense zigzag takes memory growing with its density).
 
     Returns
     -------
@@ -106,8 +108,13 @@ def plot_trajectory(
     # draw the first displacement last so that it stays visible on top of larger ones
     for k, name in reversed(list(enumerate(disp))):
         ax_w.plot(t[win], traj[name][win], lw=1.0, color=f"C{k}", label=_label(traj, name))
-        t_x, x = history.series(name) if history is not None else (t, traj[name])
-        ax_x.plot(t_x, x, lw=0.6, color=f"C{k}", label=_label(traj, name))
+        if history is None:
+            ax_x.plot(t, traj[name], lw=0.6, color=f"C{k}", label=_label(traj, name))
+        elif history.count < 8 * history.buckets:  # a few samples per bucket: the line through the extrema
+            ax_x.plot(*history.series(name), lw=0.6, color=f"C{k}", label=_label(traj, name))
+        else:  # dense: the band between the extrema (the same picture, drawn in constant memory)
+            ax_x.fill_between(*history.bounds(name), color=f"C{k}", lw=0.6)
+            ax_x.plot([], [], lw=0.6, color=f"C{k}", label=_label(traj, name))
     ax_w.set_title("displacements" + (f" (last {last_periods:g} periods)" if period else ""))
     ax_x.set_title("displacement history (whole run)")
     for ax in (ax_w, ax_x):
