@@ -11,12 +11,17 @@ from ._continuation import SpecialPoint as SpecialPoint
 from ._continuation import continuation as continuation
 from ._expr import FUNCTIONS as FUNCTIONS
 from ._expr import ExpressionError as ExpressionError
+from ._io import EventsCSVWriter as EventsCSVWriter
+from ._io import TrajectoryCSVWriter as TrajectoryCSVWriter
 from ._loader import load_system as load_system
 from ._loader import system_from_dict as system_from_dict
 from ._options import SolverOptions as SolverOptions
 from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
 from ._orbit import PeriodicOrbit as PeriodicOrbit
 from ._orbit import periodic_orbit as periodic_orbit
+from ._record import Envelope as Envelope
+from ._record import Sink as Sink
+from ._record import Tee as Tee
 from ._simulate import SimulationError as SimulationError
 from ._simulate import initial_state as initial_state
 from ._simulate import simulate as simulate

@@ -5,57 +5,182 @@ from __future__ import annotations
 import csv
 import json
 import math
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ._trajectory import Trajectory
+from ._record import Sink
+from ._trajectory import Trajectory, TransitionRecord
 
-__all__ = ["write_trajectory_csv", "write_events_csv", "write_rows_csv", "trajectory_summary", "to_json"]
+__all__ = [
+    "write_trajectory_csv",
+    "write_events_csv",
+    "TrajectoryCSVWriter",
+    "EventsCSVWriter",
+    "write_rows_csv",
+    "trajectory_summary",
+    "to_json",
+]
 
 
-def _header(traj: Trajectory) -> list[str]:
-    system = traj.system
+def _header(system, names: Sequence[str], outputs: Iterable[str]) -> list[str]:
     units = {v.name: v.unit for v in system.variables}
     cols = ["t [s]", "mode"]
-    cols += [f"{n} [{units[n]}]" if units.get(n) else n for n in traj.names]
+    cols += [f"{n} [{units[n]}]" if units.get(n) else n for n in names]
     out_units = system.plot.get("units", {})
-    cols += [f"{o} [{out_units[o]}]" if out_units.get(o) else o for o in traj.outputs]
+    cols += [f"{o} [{out_units[o]}]" if out_units.get(o) else o for o in outputs]
     return cols
 
 
+def _sample_rows(t: np.ndarray, mode: np.ndarray, y: np.ndarray, outputs: list[np.ndarray]) -> Iterator[list]:
+    """CSV rows of samples: time, mode, variables, outputs; floats written exactly (``repr``)."""
+    columns = [np.asarray(t, dtype=float).tolist(), *np.asarray(y, dtype=float).T.tolist()]
+    columns += [np.asarray(o, dtype=float).tolist() for o in outputs]
+    for m, row in zip(mode, zip(*columns, strict=True), strict=True):
+        yield [repr(row[0]), m, *map(repr, row[1:])]
+
+
+def _events_header(names: Sequence[str]) -> list[str]:
+    return (
+        ["t [s]", "source", "target", "transition", "guard_value", "chained"]
+        + [f"{n}-" for n in names]
+        + [f"{n}+" for n in names]
+    )
+
+
+def _event_row(ev: TransitionRecord) -> list:
+    return (
+        [repr(float(ev.t)), ev.source, ev.target, ev.guard, repr(float(ev.guard_value)), int(ev.chained)]
+        + [repr(float(v)) for v in ev.x_minus]
+        + [repr(float(v)) for v in ev.x_plus]
+    )
+
+
 def write_trajectory_csv(traj: Trajectory, path: str | Path) -> Path:
-    """Write every sample (time, mode, variables, outputs) to a CSV file."""
+    """Write every sample of a trajectory (time, mode, variables, outputs) to a CSV file.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The samples it holds (for a streamed run, its kept window).
+    path : str or Path
+        CSV file to write (replaced).
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(_header(traj))
-        outs = [traj.outputs[o] for o in traj.outputs]
-        for i in range(traj.t.size):
-            row = [repr(float(traj.t[i])), traj.mode[i]]
-            row += [repr(float(v)) for v in traj.y[i]]
-            row += [repr(float(o[i])) for o in outs]
-            w.writerow(row)
+        w.writerow(_header(traj.system, traj.names, traj.outputs))
+        w.writerows(_sample_rows(traj.t, traj.mode, traj.y, list(traj.outputs.values())))
     return path
 
 
 def write_events_csv(traj: Trajectory, path: str | Path) -> Path:
-    """Write the event log (one row per switch, states before and after) to a CSV file."""
+    """Write the event log of a trajectory (one row per switch, states before and after) to a CSV file.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The switches it holds (for a streamed run, those of its kept window).
+    path : str or Path
+        CSV file to write (replaced).
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(
-            ["t [s]", "source", "target", "transition", "guard_value", "chained"]
-            + [f"{n}-" for n in traj.names]
-            + [f"{n}+" for n in traj.names]
-        )
-        for ev in traj.events:
-            w.writerow(
-                [repr(ev.t), ev.source, ev.target, ev.guard, repr(ev.guard_value), int(ev.chained)]
-                + [repr(float(v)) for v in ev.x_minus]
-                + [repr(float(v)) for v in ev.x_plus]
-            )
+        w.writerow(_events_header(traj.names))
+        w.writerows(_event_row(ev) for ev in traj.events)
     return path
+
+
+class _CSVSink(Sink):
+    """A sink writing CSV rows as they come. The file is created at the first row or at :meth:`close`
+    (so that a run refused before it starts leaves no file); use it as a context manager."""
+
+    def __init__(self, path: str | Path, header: list[str]):
+        self.path = Path(path)
+        self.header = header
+        self._fh = None
+        self._writer = None
+        self.rows = 0
+
+    def _rows(self, rows: Iterable[list]) -> None:
+        if self._writer is None:
+            self._fh = self.path.open("w", newline="")
+            self._writer = csv.writer(self._fh)
+            self._writer.writerow(self.header)
+        for row in rows:
+            self._writer.writerow(row)
+            self.rows += 1
+
+    def close(self) -> Path:
+        """Finish the file (header only if no row came) and return its path."""
+        if self._writer is None:
+            self._rows(())
+        self._fh.close()
+        return self.path
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        elif self._fh is not None:
+            self._fh.close()
+
+
+class TrajectoryCSVWriter(_CSVSink):
+    """Sink writing the samples of a run to a CSV file as they come, in constant memory.
+
+    The file has the columns and format of :func:`write_trajectory_csv`
+    (time [s], mode, every variable, every output, in model units).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file to write (replaced).
+    system : HybridSystem
+        The system simulated (names and units of the columns).
+
+    Examples
+    --------
+    >>> with TrajectoryCSVWriter("trajectory.csv", system) as w:  # doctest: +SKIP
+    ...     simulate(system, params, t_span, x0, sink=w)
+    """
+
+    def __init__(self, path: str | Path, system):
+        self.outputs = list(system.outputs)
+        super().__init__(path, _header(system, system.variable_names, self.outputs))
+
+    def samples(self, t, y, mode, outputs) -> None:
+        self._rows(_sample_rows(t, mode, y, [outputs[o] for o in self.outputs]))
+
+
+class EventsCSVWriter(_CSVSink):
+    """Sink writing the switches of a run to a CSV file as they come (format of :func:`write_events_csv`).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file to write (replaced).
+    system : HybridSystem
+        The system simulated (variable names of the columns).
+    """
+
+    def __init__(self, path: str | Path, system):
+        super().__init__(path, _events_header(system.variable_names))
+
+    def event(self, record: TransitionRecord) -> None:
+        self._rows((_event_row(record),))
 
 
 def _cell(v) -> str:
@@ -98,23 +223,21 @@ def trajectory_summary(traj: Trajectory) -> dict:
         "final_mode": traj.mode_final,
         "final_state": {n: float(v) for n, v in zip(traj.names, traj.y_final, strict=True)},
         "transitions": traj.n_transitions,
+        "samples": traj.n_samples,
         "nfev": traj.nfev,
         "njev": traj.njev,
     }
     en = system.energy
-    if en and traj.t.size:
-
-        def final_of(name: str) -> float:
-            return traj.final(name) if name in traj.names else float(traj[name][-1])
-
+    start, final = traj.start_values, traj.final_values
+    if en and start is not None and final is not None:
+        # from the values at the start and the end of the run: no sample needed (a streamed run keeps few)
         if "input" in en:
-            out["input_work"] = final_of(en["input"]) - float(traj[en["input"]][0])
+            out["input_work"] = final[en["input"]] - start[en["input"]]
         if "dissipated" in en:
-            out["dissipated_energy"] = final_of(en["dissipated"]) - float(traj[en["dissipated"]][0])
+            out["dissipated_energy"] = final[en["dissipated"]] - start[en["dissipated"]]
         if "mechanical" in en:
-            mech = traj[en["mechanical"]]
-            out["mechanical_energy_change"] = float(mech[-1] - mech[0])
-        if {"input", "dissipated", "mechanical"} <= set(en) and traj.t[-1] == traj.t_final:
+            out["mechanical_energy_change"] = final[en["mechanical"]] - start[en["mechanical"]]
+        if {"input", "dissipated", "mechanical"} <= set(en):
             out["energy_balance_residual"] = (
                 out["input_work"] - out["dissipated_energy"] - out["mechanical_energy_change"]
             )

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ._record import Envelope
 from ._trajectory import Trajectory
 
 __all__ = ["plot_trajectory", "plot_orbit"]
@@ -43,18 +44,27 @@ def _shade_modes(ax, traj: Trajectory, shade: set, t_lo: float = -float("inf")) 
     return shaded_any
 
 
-def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float = 4.0) -> Path:
+def plot_trajectory(
+    traj: Trajectory, path: str | Path, *, last_periods: float = 4.0, history: Envelope | None = None
+) -> Path:
     """Write the stick-slip figure of a trajectory as PNG.
 
     Parameters
     ----------
     traj : Trajectory
-        Result of :func:`hybrid.simulate`.
+        Result of :func:`hybrid.simulate`; the windowed panels draw its
+        samples (a streamed run needs to have kept the window).
     path : str or Path
         PNG file to write.
     last_periods : float
         Window of the force plots, in forcing periods at the end of the run
         (the whole run if the model has no period).
+    history : Envelope, optional
+        Min/max envelope of the displacements over the whole run (recorded
+        while a streamed run went on), drawn in the whole-run panel instead of
+        the trajectory's samples: as the line through the extrema, or, with
+        more than 8 samples per bucket, as the band between them (rendering a
+        dense zigzag takes memory growing with its density).
 
     Returns
     -------
@@ -98,7 +108,13 @@ def plot_trajectory(traj: Trajectory, path: str | Path, *, last_periods: float =
     # draw the first displacement last so that it stays visible on top of larger ones
     for k, name in reversed(list(enumerate(disp))):
         ax_w.plot(t[win], traj[name][win], lw=1.0, color=f"C{k}", label=_label(traj, name))
-        ax_x.plot(t, traj[name], lw=0.6, color=f"C{k}", label=_label(traj, name))
+        if history is None:
+            ax_x.plot(t, traj[name], lw=0.6, color=f"C{k}", label=_label(traj, name))
+        elif history.count < 8 * history.buckets:  # a few samples per bucket: the line through the extrema
+            ax_x.plot(*history.series(name), lw=0.6, color=f"C{k}", label=_label(traj, name))
+        else:  # dense: the band between the extrema (the same picture, drawn in constant memory)
+            ax_x.fill_between(*history.bounds(name), color=f"C{k}", lw=0.6)
+            ax_x.plot([], [], lw=0.6, color=f"C{k}", label=_label(traj, name))
     ax_w.set_title("displacements" + (f" (last {last_periods:g} periods)" if period else ""))
     ax_x.set_title("displacement history (whole run)")
     for ax in (ax_w, ax_x):

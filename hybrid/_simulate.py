@@ -30,12 +30,11 @@ import numpy as np
 from ._compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
 from ._dae import ROOT, TSTOP, ModeSolver, StepResult
 from ._options import SolverOptions
+from ._record import MAX_SAMPLES, MAX_STREAMED_SAMPLES, Recorder, SampleCapReached, Sink
 from ._system import HybridSystem
 from ._trajectory import Status, Trajectory, TransitionRecord
 
 __all__ = ["simulate", "initial_state", "SimulationError"]
-
-MAX_SAMPLES = 10_000_000
 
 
 class SimulationError(RuntimeError):
@@ -93,6 +92,8 @@ def simulate(
     max_transitions: int = 1_000_000,
     throw: bool = True,
     progress: Callable[[float], None] | None = None,
+    sink: Sink | None = None,
+    keep_last: float = 0.0,
 ) -> Trajectory:
     """Simulate a hybrid system, event-driven, with IDA.
 
@@ -128,6 +129,21 @@ def simulate(
     progress : callable, optional
         Called with the fraction of the time span done (0..1), at most about
         200 times.
+    sink : Sink, optional
+        Receives every sample (in blocks, with the outputs) and every switch
+        while the run goes on (see :class:`hybrid.Sink`; e.g. CSV writers), so
+        that a long run needs constant memory. The returned trajectory then
+        keeps only the last ``keep_last`` seconds. Without a sink at most
+        ``MAX_SAMPLES`` (2e6) samples are recorded, with one at most
+        ``MAX_STREAMED_SAMPLES`` (1e9); both are checked before the run (for
+        sampling on every step, against one sample per ``max_step``) and
+        again while it runs (status ``MAX_SAMPLES``).
+    keep_last : float
+        With a ``sink``: seconds [s] at the end of the run (or before where it
+        stopped) whose samples and switches the trajectory keeps; 0 keeps
+        only the last sample. The trajectory still counts every switch
+        (``n_transitions``) and carries the values at the start and the end
+        of the run (``start_values``, ``final_values``).
 
     Returns
     -------
@@ -136,7 +152,7 @@ def simulate(
     Raises
     ------
     ValueError
-        Bad input, before any integration.
+        Bad input, or too many samples, before any integration.
     SimulationError
         With ``throw=True``, when the run stops early (solver failure, Zeno
         burst, no admissible mode, too many transitions).
@@ -171,6 +187,7 @@ def simulate(
         raise ValueError(f"`t_span` must be finite with t1 > t0, got {t_span!r}")
     if isinstance(max_transitions, bool) or not isinstance(max_transitions, int) or max_transitions < 0:
         raise ValueError(f"`max_transitions` must be an integer >= 0, got {max_transitions!r}")
+    _check_sink(sink, keep_last)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
         raise ValueError(
@@ -191,7 +208,19 @@ def simulate(
             stacklevel=2,
         )
     return run_compiled(
-        cs, options, t0, t1, y0, cs.mode_id(mode0), samples, include_events, max_transitions, throw, progress
+        cs,
+        options,
+        t0,
+        t1,
+        y0,
+        cs.mode_id(mode0),
+        samples,
+        include_events,
+        max_transitions,
+        throw,
+        progress,
+        sink=sink,
+        keep_last=keep_last,
     )
 
 
@@ -207,14 +236,78 @@ def run_compiled(
     max_transitions: int = 1_000_000,
     throw: bool = False,
     progress: Callable[[float], None] | None = None,
+    *,
+    sink: Sink | None = None,
+    keep_last: float = 0.0,
 ) -> Trajectory:
-    """:func:`simulate` on an already compiled system and checked input (no validation)."""
+    """:func:`simulate` on an already compiled system and checked input (only the sample caps are checked).
+
+    ``samples`` is an increasing array of sample times, or None to sample
+    every internal step; ``sink`` and ``keep_last`` as in :func:`simulate`.
+    """
     atol = options.atol_vector(cs.system.variable_names)
     run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
-    return run.execute(np.asarray(y0, dtype=float), mode0, throw)
+    _check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
+    recorder = Recorder(len(cs.names), [m.name for m in cs.modes], run.outputs, sink, keep_last, MAX_SAMPLES)
+    return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
 
 
-def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | None:
+def _check_sink(sink, keep_last) -> None:
+    if sink is not None and not (
+        callable(getattr(sink, "samples", None)) and callable(getattr(sink, "event", None))
+    ):
+        raise TypeError(
+            f"`sink` must have methods `samples` and `event` (see hybrid.Sink), got {type(sink).__name__}"
+        )
+    if isinstance(keep_last, bool) or not isinstance(keep_last, int | float) or not keep_last >= 0:
+        raise ValueError(f"`keep_last` must be a number >= 0 [s], got {keep_last!r}")
+    if sink is None and keep_last != 0:
+        raise ValueError("`keep_last` needs a `sink`: without one the trajectory keeps every sample")
+
+
+def _check_sample_count(samples, span: float, max_step: float, streamed: bool) -> None:
+    """Refuse, before the run, more samples than a run may record (in memory, or handed to a sink)."""
+    cap = MAX_STREAMED_SAMPLES if streamed else MAX_SAMPLES
+    advice = (
+        "sample less or shorten the run"
+        if streamed
+        else "stream them to a sink, sample less or shorten the run"
+    )
+    where = "handed to a sink" if streamed else "kept in memory"
+    if samples is None:
+        n = math.ceil(min(span / max_step, 1e18))
+        if n > cap:
+            raise ValueError(
+                f"sampling every internal step of at most {max_step:.6g} s over {span:.6g} s makes at least {n} "
+                f"samples; at most {cap} may be {where}: give `samples_per_period` or `t_eval`, or {advice}"
+            )
+        return
+    n = samples.size
+    if n > cap:
+        what = getattr(samples, "description", f"{n} sample times")
+        raise ValueError(f"{what} make {n} samples; at most {cap} may be {where}: {advice}")
+
+
+class _Grid:
+    """The sample times ``t0 + i*h <= t1`` (``i = 0, 1, ...``), then ``t1`` if the last falls short of it.
+
+    Computed on demand (constant memory); indexable like the array it stands for.
+    """
+
+    def __init__(self, t0: float, h: float, n: int, t1: float, description: str):
+        while n > 0 and t0 + n * h > t1:
+            n -= 1
+        self.t0, self.h, self.n, self.t1 = t0, h, n, t1
+        self.size = n + 1 + int(t0 + n * h < t1)
+        self.description = description
+
+    def __getitem__(self, i: int) -> float:
+        if not 0 <= i < self.size:
+            raise IndexError(i)
+        return self.t0 + i * self.h if i <= self.n else self.t1
+
+
+def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | _Grid | None:
     if t_eval is not None and spp is not None:
         raise ValueError("give `t_eval` or `samples_per_period`, not both")
     if spp is not None:
@@ -223,21 +316,13 @@ def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | None:
         if period is None:
             raise ValueError("`samples_per_period` needs a model with a forcing period")
         n = int(math.floor(min((t1 - t0) / period * spp, 1e12) + 1e-9))
-        if n > MAX_SAMPLES:
-            raise ValueError(
-                f"{(t1 - t0) / period:.6g} periods at `samples_per_period` = {spp} make {n} samples; "
-                f"at most {MAX_SAMPLES} are allowed: shorten the run or sample less"
-            )
-        ts = t0 + np.arange(n + 1) * (period / spp)
-        ts = ts[ts <= t1]
-        if ts[-1] < t1:
-            ts = np.append(ts, t1)
-        return ts
+        what = f"{(t1 - t0) / period:.6g} periods at `samples_per_period` = {spp}"
+        return _Grid(t0, period / spp, n, t1, what)
     if t_eval is None:
         return None
     ts = np.asarray(t_eval, dtype=float).ravel()
-    if ts.size > MAX_SAMPLES:
-        raise ValueError(f"`t_eval` has {ts.size} times; at most {MAX_SAMPLES} are allowed")
+    if ts.size > MAX_STREAMED_SAMPLES:
+        raise ValueError(f"`t_eval` has {ts.size} times; at most {MAX_STREAMED_SAMPLES} are allowed")
     if ts.size == 0 or not np.all(np.isfinite(ts)):
         raise ValueError("`t_eval` must be a non-empty array of finite times")
     if np.any(np.diff(ts) < 0) or ts[0] < t0 or ts[-1] > t1:
@@ -274,9 +359,6 @@ class _Run:
         self.max_step = options.max_step or (cs.period / 16.0 if cs.period else span / 50.0)
         self.zeno_window = options.zeno_window or 1e-6 * (cs.period or span)
         self.solvers: dict[int, ModeSolver] = {}
-        self.ts: list[float] = []
-        self.ys: list[np.ndarray] = []
-        self.ms: list[int] = []
         self.events: list[TransitionRecord] = []
         self.recent = deque(maxlen=options.zeno_count)
         self.nfev = self.njev = self.n_steps = 0
@@ -310,9 +392,43 @@ class _Run:
         return self.opt.guard_noise * float(np.abs(grad) @ scale) + 1e-14
 
     def record(self, t: float, y: np.ndarray, mode: int) -> None:
-        self.ts.append(t)
-        self.ys.append(self.project(self.cs.modes[mode], t, y))
-        self.ms.append(mode)
+        # completed switches go to the recorder first: no switch is pending while a sample is taken
+        for ev in self.events:
+            self.rec.add_event(ev)
+        self.events.clear()
+        try:
+            self.rec.add(t, self.project(self.cs.modes[mode], t, y), mode)
+        except SampleCapReached as exc:
+            raise _Stop(Status.MAX_SAMPLES, str(exc)) from None
+
+    def outputs(self, t: np.ndarray, y: np.ndarray, m: np.ndarray) -> dict[str, np.ndarray]:
+        """The system's outputs at samples ``(t, y, mode index)``."""
+        out = {o: np.empty(t.size) for o in self.cs.system.outputs}
+        if not out:
+            return out
+        for k, cm in enumerate(self.cs.modes):
+            fns = [(out[o], o, cm.outputs[o]) for o in out]
+            for i in np.flatnonzero(m == k):
+                v = [t[i], *y[i].tolist()]
+                for col, o, fn in fns:
+                    try:
+                        col[i] = fn(v)
+                    except (ArithmeticError, ValueError) as exc:
+                        raise _Stop(
+                            Status.EVALUATION_FAILED,
+                            f"evaluating output `{o}` of mode `{cm.name}` at t={float(t[i])!r} failed: "
+                            f"{type(exc).__name__}: {exc}",
+                        ) from None
+        return out
+
+    def values(self, t: float, y: np.ndarray, mode: int) -> dict[str, float]:
+        """Every variable and output at ``(t, y)`` in ``mode`` (slave variables re-solved)."""
+        y = self.project(self.cs.modes[mode], t, y)
+        out = self.outputs(np.array([t]), y[None, :], np.array([mode]))
+        return {
+            **dict(zip(self.cs.names, y.tolist(), strict=True)),
+            **{o: float(v[0]) for o, v in out.items()},
+        }
 
     def project(self, cm: CompiledMode, t: float, y: np.ndarray) -> np.ndarray:
         """``y`` with the slave variables of ``cm`` re-solved (IDA's interpolant satisfies the
@@ -404,7 +520,7 @@ class _Run:
         tgt = self.cs.modes[target]
         self.current = (t, np.array(y_minus), cm.index)
         # x_plus is completed (slave variables re-solved) lazily: store the reset state.
-        if len(self.events) >= self.max_transitions:
+        if self.rec.n_events + len(self.events) >= self.max_transitions:
             raise _Stop(
                 Status.MAX_TRANSITIONS,
                 f"stopped after {self.max_transitions} transitions, at t={t!r} before `{g.name}`; "
@@ -432,12 +548,15 @@ class _Run:
         )
 
     # ------------------------------------------------------------------
-    def execute(self, y0: np.ndarray, mode0: int, throw: bool) -> Trajectory:
+    def execute(self, y0: np.ndarray, mode0: int, throw: bool, recorder: Recorder) -> Trajectory:
+        self.rec = recorder
+        self.start: tuple[float, np.ndarray, int] | None = None
         t, y, mode = self.t0, y0, mode0
         start_mode = self.cs.modes[mode0].name
         status, message = Status.COMPLETED, "reached the end of the time span"
         try:
             mode, y, yp, disarmed = self.enter(mode, t, y, after_switch=False)
+            self.start = (t, y, mode)
             self.emit_samples_upto(t, lambda s: (y, mode), inclusive=True)
             if self.record_steps:
                 self.record(t, y, mode)
@@ -618,26 +737,29 @@ class _Run:
         cs = self.cs
         if self.progress is not None and status == Status.COMPLETED:
             self.progress(1.0)
-        ts = np.array(self.ts)
-        ys = np.array(self.ys).reshape(len(self.ts), len(cs.names))
-        ms = np.array(self.ms, dtype=int)
+        start_values = final_values = None
+        for ev in self.events:
+            self.rec.add_event(ev)
+        self.events.clear()
+        try:
+            self.rec.flush()  # a block whose outputs cannot be evaluated is dropped
+            if self.start is not None:
+                start_values = self.values(*self.start)
+                final_values = self.values(float(t), np.asarray(y, dtype=float), mode)
+        except _Stop as stop:  # an output cannot be evaluated, or the final slave variables not solved
+            start_values = final_values = None
+            if status >= 0:
+                status, message = stop.status, stop.message
+        ts, ys, ms, outputs = self.rec.finish(float(t))
         names = np.array([m.name for m in cs.modes], dtype=object)
-        outputs = {}
-        for o in cs.system.outputs:
-            col = np.empty(ts.size)
-            for k, cm in enumerate(cs.modes):
-                sel = np.flatnonzero(ms == k)
-                fn = cm.outputs[o]
-                for i in sel:
-                    col[i] = fn([ts[i], *ys[i].tolist()])
-            outputs[o] = col
+        streamed = self.rec.sink is not None
         traj = Trajectory(
             t=ts,
             y=ys,
             mode=names[ms] if ms.size else np.array([], dtype=object),
             names=cs.names,
             outputs=outputs,
-            events=tuple(self.events),
+            events=tuple(self.rec.events),
             status=status,
             message=message,
             nfev=self.nfev,
@@ -650,6 +772,12 @@ class _Run:
             mode_final=cs.modes[mode].name,
             t_start=self.t0,
             mode_start=start_mode,
+            start_values=start_values,
+            final_values=final_values,
+            samples_dropped=self.rec.samples_dropped,
+            events_dropped=self.rec.events_dropped,
+            kept_from=max(self.rec.cutoff, self.t0) if streamed else None,
+            kept_from_mode=(self.rec.mode_after_dropped or start_mode) if streamed else None,
         )
         if throw and status < 0:
             raise SimulationError(message)

@@ -21,6 +21,7 @@ class Status(enum.IntEnum):
     ALGEBRAIC_FAILED = -4
     MAX_TRANSITIONS = -5
     EVALUATION_FAILED = -6
+    MAX_SAMPLES = -7
 
 
 @dataclass(frozen=True)
@@ -60,11 +61,15 @@ class TransitionRecord:
 class Trajectory:
     """A simulated trajectory of a hybrid system.
 
+    A run streamed to a sink keeps only its last samples and switches (a
+    *window* from :attr:`kept_from` to :attr:`t_final`); the counts of what it
+    dropped, and the values at the start and at the end of the run, stay.
+
     Attributes
     ----------
     t : ndarray, shape (n,)
-        Sample times [s]; a switch appears twice (before and after) when
-        events are sampled.
+        Sample times [s] (of the kept window); a switch appears twice (before
+        and after) when events are sampled.
     y : ndarray, shape (n, n_vars)
         All variables at the samples, time-major; a slave variable's role in a
         sample follows from its mode.
@@ -75,7 +80,7 @@ class Trajectory:
     outputs : dict of str to ndarray, shape (n,)
         The system's output definitions at the samples.
     events : tuple of TransitionRecord
-        Every switch, in order.
+        Every switch (of the kept window), in order.
     status : Status
     message : str
     success : bool
@@ -93,6 +98,21 @@ class Trajectory:
         State at ``t_final``.
     mode_final : str
         Mode at ``t_final``.
+    t_start : float
+        Start of the run [s].
+    mode_start : str
+        Mode given at ``t_start`` (before any switch the initial state forces).
+    start_values, final_values : dict of str to float, or None
+        Every variable and output at ``t_start`` (after the initial state is
+        made consistent and its forced switches taken) and at ``t_final``
+        (slave variables re-solved), in model units; None if the run failed
+        before they could be evaluated.
+    samples_dropped, events_dropped : int
+        Samples and switches not kept (handed to a sink only).
+    kept_from : float or None
+        Start of the kept window [s]; None: ``t_start`` (nothing dropped).
+    kept_from_mode : str or None
+        Mode at ``kept_from`` (before a switch at that instant); None: ``mode_start``.
     """
 
     t: np.ndarray
@@ -113,6 +133,12 @@ class Trajectory:
     mode_final: str = ""
     t_start: float = 0.0
     mode_start: str = ""
+    start_values: Mapping[str, float] | None = None
+    final_values: Mapping[str, float] | None = None
+    samples_dropped: int = 0
+    events_dropped: int = 0
+    kept_from: float | None = None
+    kept_from_mode: str | None = None
 
     @property
     def success(self) -> bool:
@@ -128,16 +154,23 @@ class Trajectory:
 
     @property
     def n_transitions(self) -> int:
-        return len(self.events)
+        """Switches of the whole run (kept and dropped)."""
+        return len(self.events) + self.events_dropped
+
+    @property
+    def n_samples(self) -> int:
+        """Samples of the whole run (kept and dropped)."""
+        return self.t.size + self.samples_dropped
 
     def final(self, name: str) -> float:
         """Value of variable ``name`` at ``t_final``."""
         return float(self.y_final[self.names.index(name)])
 
     def mode_intervals(self) -> list[tuple[float, float, str]]:
-        """``(t_start, t_end, mode)`` of every phase, from the event log (exact switch times)."""
+        """``(t_start, t_end, mode)`` of every phase of the kept window, from the event log (exact switch times)."""
         out = []
-        t0, m = self.t_start, self.mode_start
+        t0 = self.t_start if self.kept_from is None else self.kept_from
+        m = self.mode_start if self.kept_from_mode is None else self.kept_from_mode
         for ev in self.events:
             if ev.t > t0 or not out:
                 out.append((t0, ev.t, m))
@@ -148,6 +181,6 @@ class Trajectory:
     def __repr__(self) -> str:
         return (
             f"Trajectory(status={self.status.name}, success={self.success}, message={self.message!r}, "
-            f"t=[{self.t_start:g}, {self.t_final:g}], samples={self.t.size}, transitions={self.n_transitions}, "
+            f"t=[{self.t_start:g}, {self.t_final:g}], samples={self.n_samples}, transitions={self.n_transitions}, "
             f"mode_final={self.mode_final!r}, nfev={self.nfev}, njev={self.njev})"
         )

@@ -22,17 +22,31 @@ from pathlib import Path
 import numpy as np
 
 from ._expr import ExpressionError
-from ._io import to_json, trajectory_summary, write_events_csv, write_rows_csv, write_trajectory_csv
+from ._io import (
+    EventsCSVWriter,
+    TrajectoryCSVWriter,
+    to_json,
+    trajectory_summary,
+    write_rows_csv,
+    write_trajectory_csv,
+)
 from ._loader import load_system
 from ._options import SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
 from ._progress import ProgressBar
+from ._record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
 from ._simulate import SimulationError, initial_state, simulate
 from ._system import HybridSystem, ModelError
 
 __all__ = ["main", "resolve_model"]
 
 ENTRY_POINT_GROUP = "hybrid.models"
+#: Largest `--samples-per-period` (a period of `orbit` is held in memory; `simulate` keeps 4 of them).
+MAX_SAMPLES_PER_PERIOD = 100_000
+#: Forcing periods at the end of a `simulate` run kept in memory for its figure.
+PLOT_PERIODS = 4.0
+#: Time buckets of the whole-run panel of the `simulate` figure.
+HISTORY_BUCKETS = 2000
 
 
 class UsageError(ValueError):
@@ -163,7 +177,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode0", help="initial mode (default: the model's initial mode)")
     p.add_argument("--rtol", type=_positive_float, default=1e-8, help="relative tolerance (default 1e-8)")
     p.add_argument("--atol", type=_positive_float, default=1e-10, help="absolute tolerance (default 1e-10)")
-    p.add_argument("--samples-per-period", type=_positive_int, default=100, help="output samples per period")
+    p.add_argument(
+        "--samples-per-period",
+        type=_positive_int,
+        default=100,
+        help="output samples per period (default 100, at most 100000)",
+    )
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -186,7 +205,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_tolerances(p)
     p.add_argument(
-        "--samples-per-period", type=_positive_int, default=512, help="samples of the period (default 512)"
+        "--samples-per-period",
+        type=_positive_int,
+        default=512,
+        help="samples of the period (default 512, at most 100000)",
     )
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
     p.add_argument("--json", action="store_true", help="print the orbit as JSON on stdout")
@@ -226,8 +248,29 @@ def cmd_models(args) -> int:
     return 0
 
 
+def _samples_per_period(args) -> int:
+    if args.samples_per_period > MAX_SAMPLES_PER_PERIOD:
+        raise UsageError(
+            f"`--samples-per-period` is at most {MAX_SAMPLES_PER_PERIOD}, got {args.samples_per_period}"
+        )
+    return args.samples_per_period
+
+
+class _SwitchesAt(Sink):
+    """Sink keeping the switches at one instant (those the initial state forces at the start)."""
+
+    def __init__(self, t: float):
+        self.t = t
+        self.events = []
+
+    def event(self, record) -> None:
+        if record.t == self.t:
+            self.events.append(record)
+
+
 def cmd_simulate(args) -> int:
     system = resolve_model(args.model)
+    spp = _samples_per_period(args)
     preset, params = _parameters(system, args)
     period = system.period_value(params)
     if args.t_end is not None:
@@ -236,24 +279,57 @@ def cmd_simulate(args) -> int:
         if period is None:
             raise UsageError(f"model `{system.name}` has no forcing period: give --t-end")
         t_end = (args.periods if args.periods is not None else 200.0) * period
+    if period and t_end / period * spp > MAX_STREAMED_SAMPLES:
+        raise UsageError(
+            f"{t_end / period:.6g} periods at {spp} samples per period make more than {MAX_STREAMED_SAMPLES} "
+            "samples, the most a run may write: shorten the run or lower --samples-per-period"
+        )
     x0 = {n: 0.0 for n in system.variable_names}
     x0.update(_pairs(args.x0, "--x0"))
     options = SolverOptions(rtol=args.rtol, atol=args.atol)
     out = _output_dir(system, args)
     _announce(system, preset, params)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
-    kwargs = {"samples_per_period": args.samples_per_period, "include_events": True} if period else {}
-    t0 = time.perf_counter()
-    traj = simulate(
-        system, params, (0.0, t_end), x0, args.mode0, options=options, throw=False, progress=bar, **kwargs
+    kwargs = {"samples_per_period": spp, "include_events": True} if period else {}
+    # Samples and switches go to the CSV files as the run goes on; memory holds the figure's window
+    # (the last periods; the whole run, up to the in-memory cap, for a model without a period) and a
+    # min/max envelope of the displacements for its whole-run panel.
+    keep_last = min(PLOT_PERIODS * period, t_end) if period else t_end
+    displacements = list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    history = (
+        None
+        if args.no_plot
+        else Envelope(displacements, system.variable_names, (0.0, t_end), HISTORY_BUCKETS)
     )
-    wall = time.perf_counter() - t0
+    at_start = _SwitchesAt(0.0)
     out.mkdir(parents=True, exist_ok=True)
-    files = [write_trajectory_csv(traj, out / "trajectory.csv"), write_events_csv(traj, out / "events.csv")]
-    if not args.no_plot and traj.t.size > 1:
+    t0 = time.perf_counter()
+    with (
+        TrajectoryCSVWriter(out / "trajectory.csv", system) as samples_csv,
+        EventsCSVWriter(out / "events.csv", system) as events_csv,
+    ):
+        sink = Tee(samples_csv, events_csv, at_start, *([history] if history is not None else []))
+        traj = simulate(
+            system,
+            params,
+            (0.0, t_end),
+            x0,
+            args.mode0,
+            options=options,
+            throw=False,
+            progress=bar,
+            sink=sink,
+            keep_last=keep_last,
+            **kwargs,
+        )
+    wall = time.perf_counter() - t0
+    files = [samples_csv.path, events_csv.path]
+    if history is not None and traj.t.size > 1:
         from ._plot import plot_trajectory  # matplotlib only when a figure is wanted
 
-        files.append(plot_trajectory(traj, out / "trajectory.png"))
+        files.append(
+            plot_trajectory(traj, out / "trajectory.png", last_periods=PLOT_PERIODS, history=history)
+        )
     summary = trajectory_summary(traj)
     summary.update(
         {
@@ -271,7 +347,7 @@ def cmd_simulate(args) -> int:
         print(to_json(summary))
     for f in files + [summary_path]:
         _info(f"wrote {f}")
-    at_start = [ev for ev in traj.events if ev.t == traj.t_start]
+    at_start = at_start.events
     if at_start:
         _info(
             f"note: the initial state is not admissible in mode `{at_start[0].source}`; at t = {traj.t_start:g} "
@@ -373,6 +449,7 @@ def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
 
 def cmd_orbit(args) -> int:
     system = resolve_model(args.model)
+    spp = _samples_per_period(args)
     if system.period is None:
         raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
     preset, params = _parameters(system, args)
@@ -394,7 +471,7 @@ def cmd_orbit(args) -> int:
         mode0,
         transient_periods=args.transient,
         options=options,
-        samples_per_period=args.samples_per_period,
+        samples_per_period=spp,
     )
     wall = time.perf_counter() - t0
     summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}

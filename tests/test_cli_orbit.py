@@ -109,6 +109,16 @@ BAD = [
     (["frc", "absorber", "--omega-range", "1.2", "0.8"], r"needs A < B"),
     (["frc", "absorber", "--set", "R=-1"], r"parameter `R` .* must be >= 0"),
     (["frc", "coulomb", "--preset", "forced"], r"no natural frequency .*\(--omega-range A B\)"),
+    # sample counts are capped before any run (issue 13): a period in memory, a run streamed to disk
+    (
+        ["orbit", "absorber", "--samples-per-period", "100001"],
+        r"`--samples-per-period` is at most 100000, got 100001",
+    ),
+    (["simulate", "absorber", "--samples-per-period", "100001"], r"`--samples-per-period` is at most 100000"),
+    (
+        ["simulate", "absorber", "--periods", "1e8"],
+        r"1e\+08 periods at 100 samples per period make more than 1000000000 samples, the most a run may write",
+    ),
 ]
 
 
