@@ -544,6 +544,20 @@ def substitute(e: Expr, values: Mapping[str, Expr]) -> Expr:
 _REBUILD = {"add": add, "sub": sub, "mul": mul, "div": div, "pow": power}
 
 
+def replace_nodes(e: Expr, mapping: Mapping[Expr, Expr]) -> Expr:
+    """Replace whole sub-expressions (nodes of the DAG) by others (constants folded on the way)."""
+    out: dict[Expr, Expr] = {}
+    for node in postorder([e]):
+        hit = mapping.get(node)
+        if hit is not None:
+            out[node] = hit
+        elif node.op in ("num", "sym"):
+            out[node] = node
+        else:
+            out[node] = _rebuild(node, [out[c] for c in children(node)])
+    return out[e]
+
+
 def diff(e: Expr, name: str) -> Expr:
     """Exact partial derivative of an expression with respect to symbol ``name``."""
     if name not in e.free:

@@ -1,0 +1,149 @@
+"""The exact integrator for affine modes (issue 7): flows, guard roots and quadratures against closed forms.
+
+References: the closed-form response of a forced undamped oscillator, cos/sin crossings at known
+angles, the work integral of a harmonic force in closed form, and the reduced Jacobian of
+:mod:`hybrid._linear` (slave variables eliminated independently).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import models
+from hybrid import HybridSystem, Mode, Transition
+from hybrid._compiled import CompiledSystem
+from hybrid._dae import ROOT, TSTOP
+from hybrid._exact import ExactModeSolver, NotAffineError, affine_mode, affine_system
+from hybrid._linear import reduced_jacobian
+
+
+def _oscillator(guard: str | None = None, direction: int = 0, extra: dict | None = None) -> HybridSystem:
+    """x'' + w0^2 x = F sin(W t + phi); W' = F sin(W t + phi) v (work)."""
+    eqs = {"x": "v", "v": "-w0**2*x + F*sin(W*t + phi)", "P": "F*sin(W*t + phi)*v"}
+    eqs.update(extra or {})
+    return HybridSystem(
+        name="osc",
+        variables=["x", "v", "P"],
+        parameters=["w0", "F", "W", "phi", "a"],
+        modes=[Mode("free", derivatives=eqs)],
+        transitions=[Transition("free", "free", guard=guard, direction=direction, name="hit")]
+        if guard
+        else [],
+        quadratures=("P",),
+        period="2*pi/W",
+        initial_mode="free",
+    )
+
+
+PARAMS = {"w0": 1.3, "F": 0.7, "W": 0.9, "phi": 0.4, "a": 0.5}
+
+
+def _exact_response(t, x0, v0, p):
+    """Closed form of x'' + w0^2 x = F sin(W t + phi), x(0) = x0, x'(0) = v0 (W != w0)."""
+    w0, F, W, phi = p["w0"], p["F"], p["W"], p["phi"]
+    A = F / (w0**2 - W**2)
+    xp = A * np.sin(W * t + phi)
+    vp = A * W * np.cos(W * t + phi)
+    c1 = x0 - A * math.sin(phi)
+    c2 = (v0 - A * W * math.cos(phi)) / w0
+    x = c1 * np.cos(w0 * t) + c2 * np.sin(w0 * t) + xp
+    v = -c1 * w0 * np.sin(w0 * t) + c2 * w0 * np.cos(w0 * t) + vp
+    return x, v
+
+
+def _solver(system, params, max_step=0.3):
+    cs = CompiledSystem(system, params)
+    am = affine_system(cs)[0]
+    return am, ExactModeSolver(am, max_step=max_step)
+
+
+def test_forced_oscillator_and_its_work_integral_are_exact():
+    am, ex = _solver(_oscillator(), PARAMS)
+    assert am.omega == PARAMS["W"]
+    x0, v0 = 0.3, -0.2
+    ex.start(0.0, np.array([x0, v0, 0.0]), None)
+    ts = np.linspace(0.0, 25.0, 11)[1:]
+    for t in ts:
+        r = ex.step(t, 30.0, one_step=False)
+        x, v = _exact_response(t, x0, v0, PARAMS)
+        assert r.t == t and r.status != ROOT
+        assert r.y[0] == pytest.approx(x, abs=1e-13) and r.y[1] == pytest.approx(v, abs=1e-13)
+    # work: int F sin(W t + phi) v dt, by Simpson on a fine grid of the closed form (error ~1e-13)
+    tt = np.linspace(0.0, 25.0, 200_001)
+    _, vv = _exact_response(tt, x0, v0, PARAMS)
+    f = PARAMS["F"] * np.sin(PARAMS["W"] * tt + PARAMS["phi"]) * vv
+    h = tt[1] - tt[0]
+    work = h / 3 * (f[0] + f[-1] + 4 * f[1:-1:2].sum() + 2 * f[2:-1:2].sum())
+    assert r.y[2] == pytest.approx(work, rel=1e-11)
+
+
+def test_interpolation_inside_the_last_call_is_exact():
+    _, ex = _solver(_oscillator(), PARAMS)
+    ex.start(0.0, np.array([1.0, 0.0, 0.0]), None)
+    ex.step(10.0, 10.0, one_step=False)
+    for t in (0.1, 3.3, 9.99):
+        y, yp = ex.interpolate(t)
+        x, v = _exact_response(t, 1.0, 0.0, PARAMS)
+        assert y[0] == pytest.approx(x, abs=1e-13) and yp[0] == pytest.approx(v, abs=1e-13)
+
+
+@pytest.mark.parametrize(("direction", "angle"), [(-1, math.acos(0.5)), (1, 2 * math.pi - math.acos(0.5))])
+def test_guard_crossing_is_located_to_rounding(direction, angle):
+    # free oscillation x = cos(w0 t): x = 1/2 falling at w0 t = pi/3, rising at 5 pi/3
+    p = {**PARAMS, "F": 0.0}
+    _, ex = _solver(_oscillator(guard="x - a", direction=direction), p, max_step=10.0)
+    ex.start(0.0, np.array([1.0, 0.0, 0.0]), None)
+    r = ex.step(20.0, 20.0, one_step=False)
+    assert r.status == ROOT and r.fired == (0,)
+    assert r.t == pytest.approx(angle / p["w0"], rel=1e-14)
+    assert abs(r.y[0] - 0.5) <= 1e-15
+
+
+def test_two_crossings_within_one_step_are_not_missed():
+    # x = cos(w0 t) passes x = 0.999 twice, 2 acos(0.999)/w0 = 0.0688 s apart around its maximum at
+    # 2 pi / w0; a step of the full period would jump over both with a sign test at its ends.
+    p = {**PARAMS, "F": 0.0, "a": 0.999}
+    _, ex = _solver(_oscillator(guard="x - a", direction=1), p, max_step=2 * math.pi / p["w0"] * 0.9)
+    ex.start(0.5, np.array([math.cos(0.5 * p["w0"]), -p["w0"] * math.sin(0.5 * p["w0"]), 0.0]), None)
+    r = ex.step(20.0, 20.0, one_step=False)
+    expected = (2 * math.pi - math.acos(0.999)) / p["w0"]
+    assert r.status == ROOT and r.t == pytest.approx(expected, rel=1e-13)
+
+
+def test_step_to_tstop_without_crossing():
+    _, ex = _solver(_oscillator(guard="x - 5", direction=0), {**PARAMS})
+    ex.start(0.0, np.array([0.1, 0.0, 0.0]), None)
+    r = ex.step(50.0, 7.0, one_step=False)
+    assert r.status == TSTOP and r.t == 7.0
+
+
+def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_eliminated():
+    absorber = models.absorber()
+    p = absorber.preset("standard", Omega=0.854)
+    cs = CompiledSystem(absorber, p)
+    for am in affine_system(cs):
+        names, A = reduced_jacobian(absorber, p, am.cm.name)
+        assert names == tuple(absorber.variable_names[i] for i in am.d)
+        nd = am.d.size
+        assert np.allclose(am.M[:nd, :nd], A, rtol=1e-14, atol=1e-14)
+        assert am.omega == 0.854 and am.q.size == 2
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        ({"v": "-w0**2*x**3"}, r"derivative of `v` is not affine in `x`: its derivative is"),
+        ({"v": "-sin(x)"}, r"derivative of `v` is not affine in `x`"),
+        ({"v": "-x*t"}, r"derivative of `v` depends on `t`"),
+        ({"v": "-x + exp(t)"}, r"time enters through `exp\(t\)`"),
+        ({"v": "-x + sin(W*t) + sin(2*W*t)"}, r"two forcing frequencies"),
+        ({"v": "-x + sin(t**2)"}, r"is not sin/cos of \(constant \* t \+ phase\)"),
+        ({"P": "x**3"}, r"derivative of quadrature `P` is not quadratic in the state"),
+    ],
+)
+def test_non_affine_modes_are_refused_naming_the_term(extra, match):
+    cs = CompiledSystem(_oscillator(extra=extra), PARAMS)
+    with pytest.raises(NotAffineError, match=match) as info:
+        affine_mode(cs.modes[0], ("P",))
+    assert str(info.value).startswith("mode `free`: ")
