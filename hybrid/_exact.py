@@ -42,10 +42,9 @@ from scipy.linalg import expm
 
 from ._compiled import CompiledMode, CompiledSystem
 from ._dae import ROOT, SUCCESS, TSTOP, StepResult
-from ._expr import Expr, ExpressionError, call, compile_scalar, diff, postorder, replace_nodes, sym, to_string
+from ._expr import Expr, ExpressionError, compile_scalar, diff, postorder, replace_nodes, sym, to_string
 from ._expr import add as e_add
 from ._expr import mul as e_mul
-from ._expr import neg as e_neg
 from ._expr import num as e_num
 
 __all__ = ["NotAffineError", "AffineMode", "affine_mode", "affine_system", "ExactModeSolver", "TAYLOR_DEGREE"]
@@ -506,11 +505,6 @@ class ExactModeSolver:
         self._fix_forcing(float(t), z)
         y = self.am.state(z, quad)
         return y, self.mode.derivatives(float(t), y)
-
-    def fundamental(self, h: float) -> np.ndarray:
-        """``dz(t + h)/dz(t)`` restricted to ``y_d`` (the ``d``-block of ``expm(M h)``)."""
-        nd = self.am.d.size
-        return expm(self.am.M * h)[:nd, :nd]
 
 
 class ExactSensitivity:
