@@ -13,7 +13,7 @@ import numpy as np
 from ._compiled import CompiledSystem
 from ._system import HybridSystem
 
-__all__ = ["reduced_jacobian", "natural_frequencies"]
+__all__ = ["reduced_jacobian", "natural_frequencies", "mode_eigenvalues"]
 
 
 def reduced_jacobian(
@@ -57,14 +57,24 @@ def reduced_jacobian(
     cm = cs.modes[cs.mode_id(mode)]
     y = np.zeros(cm.n) if y is None else np.asarray(y, dtype=float)
     y = cm.solve_algebraic(t, y)
-    quad = {system.variable_names.index(q) for q in system.quadratures}
+    d, A = _reduced(cm, t, y, {system.variable_names.index(q) for q in system.quadratures})
+    return tuple(system.variable_names[i] for i in d), A
+
+
+def _reduced(cm, t: float, y: np.ndarray, quad: set[int]) -> tuple[np.ndarray, np.ndarray]:
     d = np.array([i for i in cm.diff_idx if i not in quad], dtype=int)
     a = cm.alg_idx
     J = cm.dFdy(t, y)  # rows: -f_y (differential), g_y (slave)
     A = -J[np.ix_(d, d)]
     if a.size:
         A = A + J[np.ix_(d, a)] @ np.linalg.solve(J[np.ix_(a, a)], J[np.ix_(a, d)])
-    return tuple(system.variable_names[i] for i in d), A
+    return d, A
+
+
+def mode_eigenvalues(cm, t: float, y: np.ndarray, quad: set[int]) -> np.ndarray:
+    """Eigenvalues of a compiled mode's reduced Jacobian at a consistent state (quadratures ``quad`` left out)."""
+    _, A = _reduced(cm, t, y, quad)
+    return np.linalg.eigvals(A) if A.size else np.zeros(0, dtype=complex)
 
 
 def natural_frequencies(

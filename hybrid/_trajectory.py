@@ -21,6 +21,8 @@ class Status(enum.IntEnum):
     ALGEBRAIC_FAILED = -4
     MAX_TRANSITIONS = -5
     EVALUATION_FAILED = -6
+    STEP_LIMIT = -7
+    TIME_LIMIT = -8
 
 
 @dataclass(frozen=True)
