@@ -20,10 +20,14 @@ __all__ = ["time_limit", "Budget", "BudgetExceeded", "deadline_passed"]
 
 _DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("hybrid_deadline", default=None)
 
-#: A run that has used this fraction of its step budget is stopped early if, at its rate so far,
-#: it needs more than PROJECTION_FACTOR times the budget to reach the end of its time span.
+#: A run that has used this fraction of its step budget (and at least PROJECTION_MIN residual
+#: evaluations: a start is slow) is stopped early if, at its rate so far, it needs more than
+#: PROJECTION_FACTOR times the budget to reach the end of its time span.
 PROJECTION_AFTER = 0.02
+PROJECTION_MIN = 20_000
 PROJECTION_FACTOR = 4.0
+
+_clock = time.monotonic  # module-level so that tests can drive it
 
 
 @contextmanager
@@ -47,7 +51,7 @@ def time_limit(seconds: float) -> Iterator[None]:
         or not (math.isfinite(seconds) and seconds > 0)
     ):
         raise ValueError(f"`time_limit` needs a finite number of seconds > 0, got {seconds!r}")
-    deadline = time.monotonic() + float(seconds)
+    deadline = _clock() + float(seconds)
     outer = _DEADLINE.get()
     token = _DEADLINE.set((deadline, float(seconds)) if outer is None or deadline < outer[0] else outer)
     try:
@@ -59,7 +63,7 @@ def time_limit(seconds: float) -> Iterator[None]:
 def deadline_passed() -> bool:
     """True inside a :func:`time_limit` block whose deadline has passed."""
     d = _DEADLINE.get()
-    return d is not None and time.monotonic() >= d[0]
+    return d is not None and _clock() >= d[0]
 
 
 class BudgetExceeded(Exception):
@@ -85,7 +89,7 @@ class Budget:
     def __init__(self, options, t0: float, t1: float):
         self.max_steps = int(options.max_steps)
         self.wall = float(options.max_wall_time)
-        self.start = time.monotonic()
+        self.start = _clock()
         own = self.start + self.wall
         cmd = _DEADLINE.get()
         self.command = cmd is not None and cmd[0] < own
@@ -103,7 +107,7 @@ class Budget:
 
         ``where`` (e.g. ``" in mode `a`"``) is added to the message.
         """
-        now = time.monotonic()
+        now = _clock()
         if now >= self.deadline:
             if self.command:
                 msg = (
@@ -125,7 +129,7 @@ class Budget:
                 f"{self.max_steps}; CLI --max-steps) {self._where(t)}{where}; raise max_steps "
                 "(--max-steps) or shorten the run",
             )
-        if used >= PROJECTION_AFTER * self.max_steps and self.t1 > t > self.t0:
+        if used >= max(PROJECTION_AFTER * self.max_steps, PROJECTION_MIN) and self.t1 > t > self.t0:
             need = used * (self.t1 - self.t0) / (t - self.t0)
             if need > PROJECTION_FACTOR * self.max_steps:
                 raise BudgetExceeded(

@@ -9,13 +9,16 @@ stay here.
 
 from __future__ import annotations
 
+import re
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 from sksundae.ida import IDA
 
-from ._budget import Budget
+from ._budget import Budget, BudgetExceeded
 from ._compiled import CompiledMode
+from ._linear import fast_dynamics
 
 __all__ = ["ModeSolver", "StepResult", "SUCCESS", "TSTOP", "ROOT", "explain"]
 
@@ -50,13 +53,38 @@ def explain(status: int, message: str) -> str:
     )
 
 
+class _Notes:
+    """Takes what scikit-sundae prints during a call into IDA (SUNDIALS' error messages go to
+    ``print``, i.e. to stdout, where they would mix with a command's output); keeps the last."""
+
+    text = ""
+
+    def write(self, s: str) -> int:
+        s = s.strip()
+        if s:
+            self.text = re.sub(r"^\[[^\]]*\]\s*", "", s)  # drop "[IDASolve, Error: -3]"
+        return len(s)
+
+    def flush(self) -> None:
+        pass
+
+
+_NOTES = _Notes()
+
+
 def _call(ida, t: float, method: str, tstop: float | None):
-    """``ida.step``, with a flag unknown to scikit-sundae (a ``KeyError`` there) returned as a failure."""
+    """``ida.step`` with SUNDIALS' printed messages kept (``_NOTES.text``), and a flag unknown to
+    scikit-sundae (a ``KeyError`` there) returned as a failure ``(flag, message)``."""
+    _NOTES.text = ""
+    saved, sys.stdout = sys.stdout, _NOTES
     try:
         return ida.step(t, method, tstop=tstop), None
     except KeyError as exc:
         flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
-        return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae")
+        detail = f": {_NOTES.text}" if _NOTES.text else ""
+        return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae{detail}")
+    finally:
+        sys.stdout = saved
 
 
 @dataclass
@@ -170,7 +198,8 @@ class ModeSolver:
             fired = tuple(int(k) for k in np.flatnonzero(r.i_events[-1]))
         self._clear_events()
         self.nfev_last, self.njev_last = int(r.nfev), int(r.njev)
-        res = StepResult(int(r.status), float(r.t), np.array(r.y), np.array(r.yp), fired, str(r.message))
+        msg = str(r.message) + (f" {_NOTES.text}" if r.status < 0 and _NOTES.text else "")
+        res = StepResult(int(r.status), float(r.t), np.array(r.y), np.array(r.yp), fired, msg)
         if res.status >= 0:
             self._t, self._y, self._yp = res.t, res.y, res.yp
         return res
@@ -279,8 +308,19 @@ class SensitivitySolver:
         if alg:
             opts["algebraic_idx"] = alg
         self._N = N
+        self._max_step = max_step
+        self.period: float | None = None  # the forcing period, for diagnoses
         self._ida = IDA(resfn, **opts)
         self.nfev = 0
+
+    def _why_slow(self, budget: Budget, r) -> str:
+        t = float(r.t)
+        if budget.used <= 0 or not t > budget.t0:
+            return ""
+        quad = set(range(self.n)) - set(self.s.tolist())
+        per = (t - budget.t0) / budget.used
+        y = np.array(r.y)[: self.n]
+        return fast_dynamics(self.mode, t, y, quad, period=self.period, per_eval=per, max_step=self._max_step)
 
     def propagate(
         self, t0: float, y0: np.ndarray, Y0: np.ndarray, t1: float, budget: Budget | None = None
@@ -315,14 +355,16 @@ class SensitivitySolver:
                 budget.used += nfev - self._nfev_seen
             self._nfev_seen = nfev
             if budget is not None:
-                budget.check(budget.used, float(r.t), where)
+                try:
+                    budget.check(budget.used, float(r.t), where)
+                except BudgetExceeded as exc:
+                    raise BudgetExceeded(exc.kind, exc.message + self._why_slow(budget, r)) from None
             if r.status < 0:
                 if r.status == -1 and float(r.t) > t:  # max_num_steps reached: go on, within the budget
                     t = float(r.t)
                     continue
-                raise RuntimeError(
-                    f"IDA failed{where} at t={r.t!r}: {explain(int(r.status), str(r.message))}"
-                )
+                msg = str(r.message) + (f" {_NOTES.text}" if _NOTES.text else "")
+                raise RuntimeError(f"IDA failed{where} at t={r.t!r}: {explain(int(r.status), msg)}")
             z = np.array(r.y)
             if float(r.t) >= t1 or r.status in (SUCCESS, TSTOP):
                 return z[:n], z[n:].reshape((ns, ns), order="F")

@@ -71,6 +71,30 @@ def _reduced(cm, t: float, y: np.ndarray, quad: set[int]) -> tuple[np.ndarray, n
     return d, A
 
 
+def fast_dynamics(
+    cm, t: float, y: np.ndarray, quad: set[int], *, period: float | None, per_eval: float, max_step: float
+) -> str:
+    """Why a run is slow, as a clause for a message: the time it advances per residual evaluation
+    and, when that is far below the step bound, the fastest eigenvalue of ``cm`` linearised at ``y``."""
+    msg = f"; the run advanced {per_eval:.3g} s per evaluation (step bound {max_step:.3g} s)"
+    if per_eval >= 1e-3 * max_step:
+        return msg
+    try:
+        lam = mode_eigenvalues(cm, t, cm.solve_algebraic(t, y), quad)
+    except Exception:  # a diagnosis only
+        return msg
+    if not (lam.size and np.all(np.isfinite(lam))):
+        return msg
+    w = float(np.max(np.abs(lam)))
+    ratio = w * period / (2 * np.pi) if period else None
+    if ratio is not None and ratio < 100:
+        return msg
+    msg += f": mode `{cm.name}` linearised here has an eigenvalue of modulus {w:.3g} 1/s"
+    if ratio is not None:
+        msg += f", {ratio:.3g} times the forcing frequency"
+    return msg + " (dynamics far faster than the forcing: check the parameters)"
+
+
 def mode_eigenvalues(cm, t: float, y: np.ndarray, quad: set[int]) -> np.ndarray:
     """Eigenvalues of a compiled mode's reduced Jacobian at a consistent state (quadratures ``quad`` left out)."""
     _, A = _reduced(cm, t, y, quad)

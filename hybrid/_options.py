@@ -45,8 +45,8 @@ class SolverOptions:
         one period), all modes and calls together, counted in IDA residual
         evaluations (every internal step takes at least one; with the exact
         Jacobian usually one or two). A run that exhausts it stops with
-        ``Status.STEP_LIMIT``; so does a run that, after 2 % of it, needs more
-        than four times it at its rate so far (e.g. dynamics far faster than
+        ``Status.STEP_LIMIT``; so does a run that, after 2 % of it (and at
+        least 20 000), needs more than four times it at its rate so far (e.g. dynamics far faster than
         the forcing). The default allows about ten thousand forcing periods
         of the shipped models.
     max_wall_time : float

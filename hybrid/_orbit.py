@@ -492,7 +492,16 @@ def solve_orbit(
     except BudgetExceeded as exc:
         return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc))
     except ZeroDivisionError as exc:  # a grazing switch: no saltation matrix, no monodromy
-        return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, f"{exc}; try a nearby parameter value")
+        return _failed(
+            shooter,
+            at[0],
+            at[1],
+            at[2],
+            at[3],
+            math.inf,
+            f"{exc}; write the guard to cross zero at a nonzero rate "
+            "(e.g. `v` rather than `sign(v)`), or, at a true grazing, try a nearby parameter value",
+        )
     except RuntimeError as exc:  # IDA failed in the variational equations
         return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}")
 

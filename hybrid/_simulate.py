@@ -30,7 +30,7 @@ import numpy as np
 from ._budget import Budget, BudgetExceeded
 from ._compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
 from ._dae import ROOT, TSTOP, ModeSolver, StepResult, explain
-from ._linear import mode_eigenvalues
+from ._linear import fast_dynamics
 from ._options import SolverOptions
 from ._system import HybridSystem
 from ._trajectory import Status, Trajectory, TransitionRecord
@@ -405,6 +405,7 @@ class _Run:
         index to the safe sign reported to IDA while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
+        unresolved: list[str] = []  # switches of the chain decided within a guard's noise level
         pending = len(self.events) - 1 if after_switch else None
         while True:
             cm = self.cs.modes[mode]
@@ -429,6 +430,7 @@ class _Run:
                     s = lead_sign(series, eta)
                     if d != 0 and s == d:
                         fire = g
+                        unresolved.append(f"`{g.name}` of mode `{cm.name}` ({h:.3g} within {eta:.3g})")
                         break
                     disarmed[g.index] = s if s != 0 else (-float(d) if d else 1.0)
                 elif d != 0 and d * h > 0:
@@ -454,6 +456,15 @@ class _Run:
                         Status.ZENO,
                         f"Zeno point at t={t!r}: transition `{fire.name}` of mode `{cm.name}` fires again at "
                         "the instant it was taken (switches accumulate here)",
+                    )
+                if unresolved:
+                    raise _Stop(
+                        Status.NO_ADMISSIBLE_MODE,
+                        f"no admissible mode at t={t!r}: the state goes around {path} on switches decided "
+                        f"within the guards' noise levels ({'; '.join(unresolved)}; noise = guard_noise x "
+                        "sum |dh/dy| (atol + rtol |y|)): the tolerances cannot resolve these guards here "
+                        "(a large gradient of a guard, or a band between guards narrower than their noise); "
+                        "tighten rtol/atol (--rtol, --atol) or rescale the model",
                     )
                 raise _Stop(
                     Status.NO_ADMISSIBLE_MODE,
@@ -719,27 +730,14 @@ class _Run:
         return ""
 
     def why_slow(self, t: float, y: np.ndarray, mode: int) -> str:
-        """Why a run used up its steps: the time it advances per residual evaluation, and if that
-        is far below the step bound, the fastest natural frequency of the mode it is in."""
-        used = self.nfev
-        if used <= 0 or not t > self.t0:
+        """Why a run used up its steps (see :func:`hybrid._linear.fast_dynamics`)."""
+        if self.nfev <= 0 or not t > self.t0:
             return ""
-        per = (t - self.t0) / used
-        msg = f"; the run advanced {per:.3g} s per evaluation (step bound {self.max_step:.3g} s)"
-        if per < 1e-3 * self.max_step:
-            cm = self.cs.modes[mode]
-            quad = {self.cs.names.index(q) for q in self.cs.system.quadratures}
-            try:
-                lam = mode_eigenvalues(cm, t, cm.solve_algebraic(t, y), quad)
-            except Exception:  # diagnosis only
-                lam = np.zeros(0)
-            if lam.size and np.all(np.isfinite(lam)):
-                w = float(np.max(np.abs(lam)))
-                msg += f": mode `{cm.name}` linearised here has an eigenvalue of modulus {w:.3g} 1/s"
-                if self.cs.period:
-                    msg += f", {w * self.cs.period / (2 * math.pi):.3g} times the forcing frequency"
-                msg += " (dynamics far faster than the forcing: check the parameters)"
-        return msg
+        quad = {self.cs.names.index(q) for q in self.cs.system.quadratures}
+        per = (t - self.t0) / self.nfev
+        return fast_dynamics(
+            self.cs.modes[mode], t, y, quad, period=self.cs.period, per_eval=per, max_step=self.max_step
+        )
 
     def finish(self, t, y, mode, status, message, start_mode, throw) -> Trajectory:
         cs = self.cs

@@ -155,8 +155,9 @@ def saltation(
     denom = h_t + h_y @ f_minus
     if denom == 0.0:
         raise ZeroDivisionError(
-            f"grazing switch: the guard of `{first.guard}` at t={t!r} does not change along the flow "
-            "(tangent to it), so its saltation matrix is undefined"
+            f"grazing switch: the guard of `{first.guard}` at t={t!r} has a zero rate along the flow where "
+            "it fires (the orbit touches it tangentially, or the guard is a step such as sign(...)), so its "
+            "saltation matrix is undefined"
         )
     jump = f_plus - A @ f_minus - b
     return A[ix] + np.outer(jump[s], h_y[s]) / denom
@@ -206,6 +207,7 @@ class Sensitivity:
                 max_step=self.max_step,
                 max_num_steps=min(o.max_num_steps, o.max_steps),
             )
+            self._solvers[m].period = self.cs.period
         return self._solvers[m]
 
     def fundamental(
