@@ -140,6 +140,8 @@ class Branch:
 
     def __repr__(self) -> str:
         kinds = ", ".join(f"{s.kind}@{s.parameter:.6g}" for s in self.special)
+        if not self.points:
+            return f"Branch({self.system.name}, {self.parameter}, no point, {self.status}: {self.message})"
         return (
             f"Branch({self.system.name}, {self.parameter} in [{self.p.min():.6g}, {self.p.max():.6g}], "
             f"{len(self.points)} points, special: [{kinds}], {self.status})"

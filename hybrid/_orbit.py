@@ -651,7 +651,7 @@ def newton(
             grows = scale > 1e3 * max(scale0, 1e-300)
             if grows:
                 why = "the response grows without bound: no bounded periodic orbit"
-            elif resonant:
+            elif resonant and res_norm > 1e-4:
                 why = (
                     "no bounded periodic orbit near the guess: a Floquet multiplier is 1 and the mismatch "
                     "P(x) - x lies outside the range of I - M (a resonance: the response grows by the same "
