@@ -6,6 +6,7 @@ transitions and resets. :func:`simulate` integrates it event-driven, with the
 slave (algebraic) variables of each mode solved as a DAE by IDA.
 """
 
+from ._budget import time_limit as time_limit
 from ._continuation import Branch as Branch
 from ._continuation import SpecialPoint as SpecialPoint
 from ._continuation import continuation as continuation

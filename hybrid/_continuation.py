@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._budget import BudgetExceeded
 from ._options import SolverOptions
 from ._orbit import (
     ORBIT_OPTIONS,
@@ -36,10 +37,11 @@ from ._orbit import (
     _finish,
     _Newton,
     _scale,
+    check_samples,
     is_family,
     solve_orbit,
 )
-from ._simulate import initial_state
+from ._simulate import check_time_range, initial_state
 from ._system import HybridSystem
 
 __all__ = ["Branch", "SpecialPoint", "continuation"]
@@ -138,6 +140,8 @@ class Branch:
 
     def __repr__(self) -> str:
         kinds = ", ".join(f"{s.kind}@{s.parameter:.6g}" for s in self.special)
+        if not self.points:
+            return f"Branch({self.system.name}, {self.parameter}, no point, {self.status}: {self.message})"
         return (
             f"Branch({self.system.name}, {self.parameter} in [{self.p.min():.6g}, {self.p.max():.6g}], "
             f"{len(self.points)} points, special: [{kinds}], {self.status})"
@@ -392,6 +396,7 @@ def continuation(
             raise ValueError(f"`{nm}` must be a number > 0, got {v!r}")
     if not ds_min <= ds <= ds_max:
         raise ValueError(f"need ds_min <= ds <= ds_max, got {ds_min}, {ds}, {ds_max}")
+    check_samples(samples_per_period)
     start_params = system.parameter_values({**dict(params), parameter: a})
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
@@ -399,17 +404,43 @@ def continuation(
     system.mode(mode0)
     y0 = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
     c = _Continuer(system, start_params, parameter, (a, b), options, tol)
+    for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
+        c.at(p)
+        n = transient_periods + 1 if p == a else 2
+        check_time_range(c.sh.cs, options, 0.0, n * c.sh.period)
     direction = 1.0 if b > a else -1.0
     branch = Branch(system, dict(start_params), parameter)
 
     first = solve_orbit(c.sh, y0, mode0, 0.0, transient_periods, tol, 30, samples_per_period)
+    try:
+        _follow(
+            c, branch, first, direction, ds, ds_min, ds_max, max_points, samples_per_period, locate, progress
+        )
+    except BudgetExceeded as exc:  # the budget of a run or the computation's deadline: stop here
+        branch.status = "stopped"
+        last = branch.points[-1].params[parameter] if branch.points else a
+        branch.message = f"stopped at {parameter}={last:.8g}: {exc}"
+    return branch
+
+
+def _follow(
+    c, branch, first, direction, ds, ds_min, ds_max, max_points, samples_per_period, locate, progress
+):
+    """Follow the branch from its first orbit (see :func:`continuation`)."""
+    parameter = c.parameter
+    a, b = c.a, c.b
     if not first.converged:
         branch.status = "stopped"
         branch.message = f"no periodic orbit at {parameter}={a:.8g}: {first.message}"
-        return branch
+        return
     pt = _Point(first.x0.copy(), a, first.mode0, first.t0 / first.period, orbit=first)
-    pt.tangent = c.tangent(pt, None, direction)
     branch.points.append(first)
+    try:
+        pt.tangent = c.tangent(pt, None, direction)
+    except (_Fail, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
+        branch.status = "stopped"
+        branch.message = f"stopped at {parameter}={a:.8g}: no tangent to the branch: {exc}"
+        return
     ds_cur = ds
     rephased = False
     n_points = 1
@@ -471,7 +502,6 @@ def continuation(
         pt, rephased = new, False
         if (new.p - b) * direction > 0 or (new.p - a) * direction < 0:
             break
-    return branch
 
 
 def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:

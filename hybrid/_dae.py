@@ -9,16 +9,82 @@ stay here.
 
 from __future__ import annotations
 
+import re
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 from sksundae.ida import IDA
 
+from ._budget import Budget, BudgetExceeded
 from ._compiled import CompiledMode
+from ._linear import fast_dynamics
 
-__all__ = ["ModeSolver", "StepResult", "SUCCESS", "TSTOP", "ROOT"]
+__all__ = ["ModeSolver", "StepResult", "SUCCESS", "TSTOP", "ROOT", "explain"]
 
 SUCCESS, TSTOP, ROOT = 0, 1, 2
+UNKNOWN_FLAG = -99
+
+#: What a failure flag of IDA means for the model, and what to change.
+_EXPLAIN = {
+    -1: "IDA's step limit per call was reached",
+    -2: "the demanded accuracy cannot be met (tolerances below the floating-point resolution of the "
+    "state): loosen rtol/atol (--rtol, --atol)",
+    -3: "the error test failed repeatedly down to the smallest step: the solution changes faster than the "
+    "step can follow (a discontinuity not declared as a guard, dynamics far faster than the forcing, or a "
+    "state out of range)",
+    -4: "the corrector failed to converge repeatedly down to the smallest step: the equations are stiff or "
+    "ill-conditioned here, or a slave variable cannot be solved",
+    -8: "the residual function failed",
+    -9: "the residual function failed repeatedly",
+    -12: "the residual function failed on its first call",
+    -14: "the residual or linear solver failed and IDA could not recover",
+    -22: "an input to IDA is invalid (a non-finite value, or a step or time out of floating-point range)",
+}
+
+
+def explain(status: int, message: str) -> str:
+    """IDA's failure ``status`` and ``message`` as one clause: what it means, then IDA's words."""
+    what = _EXPLAIN.get(status)
+    return (
+        f"{what} (IDA: {message.rstrip('.')}, flag {status})"
+        if what
+        else f"{message.rstrip('.')} (IDA flag {status})"
+    )
+
+
+class _Notes:
+    """Takes what scikit-sundae prints during a call into IDA (SUNDIALS' error messages go to
+    ``print``, i.e. to stdout, where they would mix with a command's output); keeps the last."""
+
+    text = ""
+
+    def write(self, s: str) -> int:
+        s = s.strip()
+        if s:
+            self.text = re.sub(r"^\[[^\]]*\]\s*", "", s)  # drop "[IDASolve, Error: -3]"
+        return len(s)
+
+    def flush(self) -> None:
+        pass
+
+
+_NOTES = _Notes()
+
+
+def _call(ida, t: float, method: str, tstop: float | None):
+    """``ida.step`` with SUNDIALS' printed messages kept (``_NOTES.text``), and a flag unknown to
+    scikit-sundae (a ``KeyError`` there) returned as a failure ``(flag, message)``."""
+    _NOTES.text = ""
+    saved, sys.stdout = sys.stdout, _NOTES
+    try:
+        return ida.step(t, method, tstop=tstop), None
+    except KeyError as exc:
+        flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
+        detail = f": {_NOTES.text}" if _NOTES.text else ""
+        return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae{detail}")
+    finally:
+        sys.stdout = saved
 
 
 @dataclass
@@ -47,9 +113,20 @@ class ModeSolver:
         can step over the forcing one period at a time).
     max_num_steps : int
         Internal steps allowed per call.
+    first_step : float
+        First step of every (re)start; 0: IDA's own estimate.
     """
 
-    def __init__(self, mode: CompiledMode, *, rtol: float, atol, max_step: float, max_num_steps: int):
+    def __init__(
+        self,
+        mode: CompiledMode,
+        *,
+        rtol: float,
+        atol,
+        max_step: float,
+        max_num_steps: int,
+        first_step: float = 0.0,
+    ):
         self.mode = mode
         ng = len(mode.guards)
         self.armed = np.ones(ng, dtype=bool)
@@ -69,6 +146,7 @@ class ModeSolver:
             atol=atol,
             max_step=max_step,
             max_num_steps=max_num_steps,
+            first_step=first_step,
             jacfn=jacfn,
             calc_initcond=None,
         )
@@ -95,6 +173,8 @@ class ModeSolver:
         """(Re)initialise at a consistent point ``(t, y, y')``."""
         self._ida.init_step(float(t), np.asarray(y, dtype=float), np.asarray(yp, dtype=float))
         self.nfev_last = self.njev_last = 0
+        self._t = float(t)
+        self._y, self._yp = np.array(y, dtype=float), np.array(yp, dtype=float)
 
     def _clear_events(self) -> None:
         # sksundae keeps every event ever found on the events function and
@@ -109,20 +189,27 @@ class ModeSolver:
 
     def step(self, tout: float, tstop: float, *, one_step: bool) -> StepResult:
         """Advance towards ``tout`` (one internal step if ``one_step``), never past ``tstop``."""
-        r = self._ida.step(float(tout), "onestep" if one_step else "normal", tstop=float(tstop))
+        r, bad = _call(self._ida, float(tout), "onestep" if one_step else "normal", float(tstop))
+        if bad is not None:
+            self._clear_events()
+            return StepResult(bad[0], self._t, self._y, self._yp, (), bad[1])
         fired: tuple[int, ...] = ()
         if r.status == ROOT and r.i_events is not None:
             fired = tuple(int(k) for k in np.flatnonzero(r.i_events[-1]))
         self._clear_events()
         self.nfev_last, self.njev_last = int(r.nfev), int(r.njev)
-        return StepResult(int(r.status), float(r.t), np.array(r.y), np.array(r.yp), fired, str(r.message))
+        msg = str(r.message) + (f" {_NOTES.text}" if r.status < 0 and _NOTES.text else "")
+        res = StepResult(int(r.status), float(r.t), np.array(r.y), np.array(r.yp), fired, msg)
+        if res.status >= 0:
+            self._t, self._y, self._yp = res.t, res.y, res.yp
+        return res
 
     def interpolate(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """State at ``t`` inside the last internal step (no advance)."""
-        r = self._ida.step(float(t), "normal")
+        r, bad = _call(self._ida, float(t), "normal", None)
         self._clear_events()
-        if r.status < 0:
-            raise RuntimeError(f"IDA could not interpolate at t={t!r}: {r.message}")
+        if bad is not None or r.status < 0:
+            raise RuntimeError(f"IDA could not interpolate at t={t!r}: {bad[1] if bad else r.message}")
         return np.array(r.y), np.array(r.yp)
 
 
@@ -221,13 +308,29 @@ class SensitivitySolver:
         if alg:
             opts["algebraic_idx"] = alg
         self._N = N
+        self._max_step = max_step
+        self.period: float | None = None  # the forcing period, for diagnoses
         self._ida = IDA(resfn, **opts)
         self.nfev = 0
 
+    def _why_slow(self, budget: Budget, r) -> str:
+        t = float(r.t)
+        if budget.used <= 0 or not t > budget.t0:
+            return ""
+        quad = set(range(self.n)) - set(self.s.tolist())
+        per = (t - budget.t0) / budget.used
+        y = np.array(r.y)[: self.n]
+        return fast_dynamics(self.mode, t, y, quad, period=self.period, per_eval=per, max_step=self._max_step)
+
     def propagate(
-        self, t0: float, y0: np.ndarray, Y0: np.ndarray, t1: float
+        self, t0: float, y0: np.ndarray, Y0: np.ndarray, t1: float, budget: Budget | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Integrate from ``(t0, y0, Y0)`` (consistent) to ``t1``; return ``(y(t1), Y(t1))``."""
+        """Integrate from ``(t0, y0, Y0)`` (consistent) to ``t1``; return ``(y(t1), Y(t1))``.
+
+        ``budget`` (shared by the segments of one variational run) is charged
+        with the residual evaluations and checked after every call into IDA
+        (:class:`hybrid._budget.BudgetExceeded`).
+        """
         mode, n, ns = self.mode, self.n, self.ns
         yp0 = mode.derivatives(t0, y0)
         J = self.J_ss(t0, y0)
@@ -239,17 +342,29 @@ class SensitivitySolver:
         z0 = np.concatenate([y0, Y0.ravel(order="F")])
         zp0 = np.concatenate([yp0, Yp0.ravel(order="F")])
         self._ida.init_step(float(t0), z0, zp0)
+        self._nfev_seen = 0
         t = float(t0)
+        where = f" in the variational equations of mode `{mode.name}`"
         while True:
-            r = self._ida.step(float(t1), "normal", tstop=float(t1))
-            self.nfev += int(r.nfev)
+            r, bad = _call(self._ida, float(t1), "normal", float(t1))
+            if bad is not None:
+                raise RuntimeError(f"IDA failed{where} near t={t!r}: {explain(*bad)}")
+            nfev = int(r.nfev)  # since init_step: the increment of this call is charged
+            self.nfev += nfev - self._nfev_seen
+            if budget is not None:
+                budget.used += nfev - self._nfev_seen
+            self._nfev_seen = nfev
+            if budget is not None:
+                try:
+                    budget.check(budget.used, float(r.t), where)
+                except BudgetExceeded as exc:
+                    raise BudgetExceeded(exc.kind, exc.message + self._why_slow(budget, r)) from None
             if r.status < 0:
-                if float(r.t) > t:  # max_num_steps reached: go on from where it stopped
+                if r.status == -1 and float(r.t) > t:  # max_num_steps reached: go on, within the budget
                     t = float(r.t)
                     continue
-                raise RuntimeError(
-                    f"IDA failed in the variational equations of mode `{mode.name}` at t={r.t!r}: {r.message}"
-                )
+                msg = str(r.message) + (f" {_NOTES.text}" if _NOTES.text else "")
+                raise RuntimeError(f"IDA failed{where} at t={r.t!r}: {explain(int(r.status), msg)}")
             z = np.array(r.y)
             if float(r.t) >= t1 or r.status in (SUCCESS, TSTOP):
                 return z[:n], z[n:].reshape((ns, ns), order="F")

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._budget import deadline_passed
 from ._continuation import Branch, continuation
 from ._linear import natural_frequencies
 from ._system import HybridSystem
@@ -82,6 +83,8 @@ class FrequencyResponse:
     resonances : ndarray
         Natural frequencies of the linearised initial mode [rad/s].
     pieces : list of Piece
+    timed_out : bool
+        The deadline of :func:`hybrid.time_limit` passed: what was not computed is a gap.
     """
 
     system: HybridSystem
@@ -90,6 +93,7 @@ class FrequencyResponse:
     p_range: tuple
     resonances: np.ndarray
     pieces: list = field(default_factory=list)
+    timed_out: bool = False
 
     @property
     def branches(self) -> list[Branch]:
@@ -113,6 +117,8 @@ class FrequencyResponse:
         out += [
             f"no periodic orbit computed for {self.parameter} in ({a:.8g}, {b:.8g})" for a, b in self.gaps
         ]
+        if self.timed_out:
+            out.append("time limit reached (hybrid.time_limit; CLI --max-time): the gaps were not computed")
         return out
 
     def rows(self) -> list[dict]:
@@ -206,12 +212,18 @@ def frequency_response(
     for a, b, w in _cuts(lo, hi, res):
         piece = Piece(a, b, w)
         out.pieces.append(piece)
+        if deadline_passed():
+            out.timed_out, piece.gap = True, (a, b)
+            continue
         up = continuation(
             system, params, parameter, (a, b), progress=report(done, b - a), **continuation_options
         )
         piece.branches.append(up)
+        out.timed_out = out.timed_out or (up.status == "stopped" and deadline_passed())
         reach = float(np.max(up.p)) if up.points else a
-        if reach < b:
+        if reach < b and deadline_passed():
+            out.timed_out, piece.gap = True, (reach, b)
+        elif reach < b:
             down = continuation(
                 system,
                 params,
@@ -221,6 +233,7 @@ def frequency_response(
                 **continuation_options,
             )
             piece.branches.append(down)
+            out.timed_out = out.timed_out or (down.status == "stopped" and deadline_passed())
             back = float(np.min(down.p)) if down.points else b
             if back > reach:
                 piece.gap = (reach, back)

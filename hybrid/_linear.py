@@ -13,7 +13,7 @@ import numpy as np
 from ._compiled import CompiledSystem
 from ._system import HybridSystem
 
-__all__ = ["reduced_jacobian", "natural_frequencies"]
+__all__ = ["reduced_jacobian", "natural_frequencies", "mode_eigenvalues"]
 
 
 def reduced_jacobian(
@@ -57,14 +57,48 @@ def reduced_jacobian(
     cm = cs.modes[cs.mode_id(mode)]
     y = np.zeros(cm.n) if y is None else np.asarray(y, dtype=float)
     y = cm.solve_algebraic(t, y)
-    quad = {system.variable_names.index(q) for q in system.quadratures}
+    d, A = _reduced(cm, t, y, {system.variable_names.index(q) for q in system.quadratures})
+    return tuple(system.variable_names[i] for i in d), A
+
+
+def _reduced(cm, t: float, y: np.ndarray, quad: set[int]) -> tuple[np.ndarray, np.ndarray]:
     d = np.array([i for i in cm.diff_idx if i not in quad], dtype=int)
     a = cm.alg_idx
     J = cm.dFdy(t, y)  # rows: -f_y (differential), g_y (slave)
     A = -J[np.ix_(d, d)]
     if a.size:
         A = A + J[np.ix_(d, a)] @ np.linalg.solve(J[np.ix_(a, a)], J[np.ix_(a, d)])
-    return tuple(system.variable_names[i] for i in d), A
+    return d, A
+
+
+def fast_dynamics(
+    cm, t: float, y: np.ndarray, quad: set[int], *, period: float | None, per_eval: float, max_step: float
+) -> str:
+    """Why a run is slow, as a clause for a message: the time it advances per residual evaluation
+    and, when that is far below the step bound, the fastest eigenvalue of ``cm`` linearised at ``y``."""
+    msg = f"; the run advanced {per_eval:.3g} s per evaluation (step bound {max_step:.3g} s)"
+    if per_eval >= 1e-3 * max_step:
+        return msg
+    try:
+        lam = mode_eigenvalues(cm, t, cm.solve_algebraic(t, y), quad)
+    except Exception:  # a diagnosis only
+        return msg
+    if not (lam.size and np.all(np.isfinite(lam))):
+        return msg
+    w = float(np.max(np.abs(lam)))
+    ratio = w * period / (2 * np.pi) if period else None
+    if ratio is not None and ratio < 100:
+        return msg
+    msg += f": mode `{cm.name}` linearised here has an eigenvalue of modulus {w:.3g} 1/s"
+    if ratio is not None:
+        msg += f", {ratio:.3g} times the forcing frequency"
+    return msg + " (dynamics far faster than the forcing: check the parameters)"
+
+
+def mode_eigenvalues(cm, t: float, y: np.ndarray, quad: set[int]) -> np.ndarray:
+    """Eigenvalues of a compiled mode's reduced Jacobian at a consistent state (quadratures ``quad`` left out)."""
+    _, A = _reduced(cm, t, y, quad)
+    return np.linalg.eigvals(A) if A.size else np.zeros(0, dtype=complex)
 
 
 def natural_frequencies(

@@ -38,12 +38,26 @@ class SolverOptions:
         Largest step [s]. ``None``: a sixteenth of the forcing period, or a
         fiftieth of the time span if the system declares no period.
     max_num_steps : int
-        Internal steps IDA may take per call before it reports failure.
+        Internal steps IDA may take per call (the engine goes on from where a
+        call stopped, within ``max_steps``).
+    max_steps : int
+        Budget of one integration (a simulation, or the variational run of
+        one period), all modes and calls together, counted in IDA residual
+        evaluations (every internal step takes at least one; with the exact
+        Jacobian usually one or two). A run that exhausts it stops with
+        ``Status.STEP_LIMIT``; so does a run that, after 2 % of it (and at
+        least 20 000), needs more than four times it at its rate so far (e.g. dynamics far faster than
+        the forcing). The default allows about ten thousand forcing periods
+        of the shipped models.
+    max_wall_time : float
+        Wall-clock budget of one integration [s] (``Status.TIME_LIMIT``). A
+        whole computation is limited by :func:`hybrid.time_limit`.
     zeno_count : int
         A burst of this many transitions ...
     zeno_window : float or None
         ... within this time [s] stops the run as a Zeno burst. ``None``:
-        1e-6 times the forcing period (or the time span).
+        1e-6 times the forcing period, or 1e-6 s for a model without one
+        (independent of the time span).
     max_chain : int
         Transitions allowed at one instant (chained switches) before the run
         stops with "no admissible mode".
@@ -61,6 +75,8 @@ class SolverOptions:
     atol_default: float = 1e-10
     max_step: float | None = None
     max_num_steps: int = 50_000
+    max_steps: int = 10_000_000
+    max_wall_time: float = 900.0
     zeno_count: int = 20
     zeno_window: float | None = None
     max_chain: int = 8
@@ -82,7 +98,8 @@ class SolverOptions:
         _positive("max_step", self.max_step, allow_none=True)
         _positive("zeno_window", self.zeno_window, allow_none=True)
         _positive("guard_noise", self.guard_noise)
-        for name in ("max_num_steps", "zeno_count", "max_chain", "taylor_order"):
+        _positive("max_wall_time", self.max_wall_time)
+        for name in ("max_num_steps", "max_steps", "zeno_count", "max_chain", "taylor_order"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")

@@ -30,12 +30,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._budget import BudgetExceeded
 from ._compiled import CompiledSystem
 from ._expr import compile_scalar, diff
 from ._options import SolverOptions
-from ._simulate import initial_state, run_compiled
+from ._simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ._system import HybridSystem
-from ._trajectory import Trajectory
+from ._trajectory import Status, Trajectory
 from ._variational import Sensitivity
 
 __all__ = ["PeriodicOrbit", "periodic_orbit", "ORBIT_OPTIONS"]
@@ -259,7 +260,10 @@ class Shooter:
 
     # ------------------------------------------------------------------
     def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
-        """One period from ``(t0, y0, mode0)`` (quadratures reset to 0)."""
+        """One period from ``(t0, y0, mode0)`` (quadratures reset to 0).
+
+        A run that exhausts its budget raises :class:`hybrid._budget.BudgetExceeded`.
+        """
         y = np.array(y0, dtype=float)
         for q in self.system.quadratures:
             y[self.names.index(q)] = 0.0
@@ -267,6 +271,8 @@ class Shooter:
         grid = np.linspace(t0, t0 + T, samples + 1) if samples else np.array([t0, t0 + T])
         tr = run_compiled(self.cs, self.options, t0, t0 + T, y, self.cs.mode_id(mode0), grid, bool(samples))
         self.nfev += tr.nfev
+        if tr.status in (Status.STEP_LIMIT, Status.TIME_LIMIT):
+            raise BudgetExceeded("steps" if tr.status == Status.STEP_LIMIT else "time", tr.message)
         return tr
 
     def monodromy(self, tr: Trajectory) -> np.ndarray:
@@ -356,6 +362,28 @@ def is_family(sv: np.ndarray) -> bool:
     return bool(sv[-1] <= FAMILY_TOL * max(1.0, sv[0]))
 
 
+#: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
+MIN_SAMPLES = 16
+
+#: What to try when Newton's method fails where an orbit may exist.
+HINT = (
+    "an orbit may still exist: try a longer transient (transient_periods; CLI --transient, e.g. 1000), "
+    "another guess (x0; --x0) or a continuation from a nearby parameter value (hybrid frc)"
+)
+
+
+def check_samples(samples_per_period) -> None:
+    if (
+        isinstance(samples_per_period, bool)
+        or not isinstance(samples_per_period, int)
+        or samples_per_period < MIN_SAMPLES
+    ):
+        raise ValueError(
+            f"`samples_per_period` must be an integer >= {MIN_SAMPLES} (the amplitudes are taken from the "
+            f"samples), got {samples_per_period!r}"
+        )
+
+
 def _check_inputs(system: HybridSystem, options, tol: float, max_iter: int, transient_periods: int) -> None:
     if not isinstance(system, HybridSystem):
         raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
@@ -426,6 +454,7 @@ def periodic_orbit(
     """
     options = ORBIT_OPTIONS if options is None else options
     _check_inputs(system, options, tol, max_iter, transient_periods)
+    check_samples(samples_per_period)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
         raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
@@ -437,6 +466,8 @@ def periodic_orbit(
     start = 0.0 if t0 is None else float(t0)
     if not math.isfinite(start):
         raise ValueError(f"`t0` must be finite, got {t0!r}")
+    check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
+    check_initial_state(shooter.cs, mode0, start, y)
     return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
 
 
@@ -450,7 +481,32 @@ def solve_orbit(
     max_iter: int,
     samples: int,
 ) -> PeriodicOrbit:
-    """Newton shooting from a guess (see :func:`periodic_orbit`)."""
+    """Newton shooting from a guess (see :func:`periodic_orbit`).
+
+    A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`)
+    or a grazing switch comes back as ``converged=False`` with the reason.
+    """
+    at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
+    try:
+        return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
+    except BudgetExceeded as exc:
+        return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc))
+    except ZeroDivisionError as exc:  # a grazing switch: no saltation matrix, no monodromy
+        return _failed(
+            shooter,
+            at[0],
+            at[1],
+            at[2],
+            at[3],
+            math.inf,
+            f"{exc}; write the guard to cross zero at a nonzero rate "
+            "(e.g. `v` rather than `sign(v)`), or, at a true grazing, try a nearby parameter value",
+        )
+    except RuntimeError as exc:  # IDA failed in the variational equations
+        return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}")
+
+
+def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
     T = shooter.period
     t_sec, mode = t_start, mode0
     if transient_periods > 0:
@@ -465,11 +521,23 @@ def solve_orbit(
             True,
         )
         shooter.nfev += tr.nfev
+        if tr.status == Status.STEP_LIMIT and "at its rate" in tr.message:
+            return _failed(
+                shooter,
+                y,
+                mode0,
+                t_start,
+                0,
+                math.inf,
+                f"transient failed: {tr.message}; fewer transient periods (transient_periods; CLI --transient) "
+                "or a better guess (--x0) cost less",
+            )
         if not tr.success:
             return _failed(shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}")
         t_sec, y, mode = _choose_section(tr, T)
     t_sec = t_sec - math.floor(t_sec / T) * T
-    return newton(shooter, y, mode, t_sec, tol, max_iter, samples)
+    at[:] = [y, mode, t_sec, 0]
+    return newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
 
 
 def _failed(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
@@ -528,9 +596,20 @@ class _Newton:
 
 
 def newton(
-    shooter: Shooter, y: np.ndarray, mode0: str, t0: float, tol: float, max_iter: int, samples: int
+    shooter: Shooter,
+    y: np.ndarray,
+    mode0: str,
+    t0: float,
+    tol: float,
+    max_iter: int,
+    samples: int,
+    at: list | None = None,
 ) -> PeriodicOrbit:
-    """Newton's method on ``P(y) = y`` from a section state (see :func:`periodic_orbit`)."""
+    """Newton's method on ``P(y) = y`` from a section state (see :func:`periodic_orbit`).
+
+    ``at`` (a list) receives the current section state, mode, time and iteration.
+    """
+    at = [] if at is None else at
     nw = _Newton(shooter, mode0)
     d = nw.d
     rcond = 1e-7
@@ -544,7 +623,9 @@ def newton(
     family = False
     it = 0
     rephased = 0
+    resonant = False  # I - M singular with the mismatch outside its range, at the last iteration
     while True:
+        at[:] = [y, mode0, t0, it]
         tr = shooter.run(y, mode0, t0)
         if not tr.success:
             return _failed(shooter, y, mode0, t0, it, res_norm, f"run failed at iteration {it}: {tr.message}")
@@ -568,11 +649,16 @@ def newton(
             break
         if it >= max_iter:
             grows = scale > 1e3 * max(scale0, 1e-300)
-            why = (
-                "the response grows without bound: no bounded periodic orbit"
-                if grows
-                else "Newton's method did not converge"
-            )
+            if grows:
+                why = "the response grows without bound: no bounded periodic orbit"
+            elif resonant and res_norm > 1e-4:
+                why = (
+                    "no bounded periodic orbit near the guess: a Floquet multiplier is 1 and the mismatch "
+                    "P(x) - x lies outside the range of I - M (a resonance: the response grows by the same "
+                    "amount every period); if something limits that growth at larger amplitude, " + HINT
+                )
+            else:
+                why = "Newton's method did not converge; " + HINT
             return _failed(
                 shooter, y, mode0, t0, it, res_norm, f"{why} ({it} iterations, residual {res_norm:.3g})"
             )
@@ -598,6 +684,10 @@ def newton(
             A = np.vstack([A, gy])
             rhs = np.concatenate([rhs, [-g[0]]])
         step = np.linalg.lstsq(A, rhs, rcond=rcond)[0]
+        rn = float(np.linalg.norm(rhs))
+        resonant = bool(
+            sv[-1] <= 1e-6 * max(sv[0], 1e-300) and rn > 0 and np.linalg.norm(A @ step - rhs) > 0.5 * rn
+        )
         # Backtracking on the residual (the map is only piecewise smooth).
         lam = 1.0
         for _ in range(6):
@@ -615,6 +705,7 @@ def newton(
                     break
             lam *= 0.5
         y = y_new
+    at[:] = [y, mode0, t0, it]
     return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note)
 
 
@@ -639,10 +730,10 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     sv = np.linalg.svd(IA, compute_uv=False)
     family = is_family(sv)
     g = shooter.gauge(y)
-    if family and g is not None and sv.size > 1:
-        cond = float(sv[0] / sv[-2])
-    else:
-        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    # cond = largest / smallest singular value that counts (the family direction removed when
+    # the gauge fixes it); inf where that one is 0, e.g. I - M = 0 (every state a periodic orbit).
+    k = -2 if (family and g is not None and sv.size > 1) else -1
+    cond = float(sv[0] / sv[k]) if sv.size and sv[k] > 0 else math.inf
     mult = np.concatenate([np.linalg.eigvals(A), np.zeros(ns - nw.d.size)])
     # Structural zeros: slave variables at the section, plus a dimension lost in any mode visited.
     nd = {m.name: sum(1 for i in s if m.is_diff[i]) for m in shooter.cs.modes}
@@ -690,7 +781,12 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
             else "the member nearest the guess is returned; "
         )
     err = cond * shooter.options.rtol
-    if err > 1e-6:
+    if sv.size and sv[0] == 0.0:
+        msg += (
+            "I - M vanishes: every nearby state is periodic (the map leaves all of them unchanged), "
+            "cond(I - M) is infinite; "
+        )
+    elif err > 1e-6:
         msg += (
             f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about "
             f"cond x rtol = {err:.2g} (relative); tighten rtol for more; "

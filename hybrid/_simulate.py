@@ -27,8 +27,10 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from ._budget import Budget, BudgetExceeded
 from ._compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
-from ._dae import ROOT, TSTOP, ModeSolver, StepResult
+from ._dae import ROOT, TSTOP, ModeSolver, StepResult, explain
+from ._linear import fast_dynamics
 from ._options import SolverOptions
 from ._record import MAX_SAMPLES, MAX_STREAMED_SAMPLES, Recorder, SampleCapReached, Sink
 from ._system import HybridSystem
@@ -36,9 +38,24 @@ from ._trajectory import Status, Trajectory, TransitionRecord
 
 __all__ = ["simulate", "initial_state", "SimulationError"]
 
+#: The step bound must span at least this many float spacings of t over the run (else the steps
+#: cannot be resolved: at t = 1e15 a step of a few seconds is a few spacings of 0.125 s).
+RESOLVED_STEPS = 1e6
+#: Smallest step bound [s]: IDA multiplies step-sized times (h x (tstop - t)), which must not underflow.
+MIN_STEP = 1e-100
+#: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
+CAREFUL_FIRST_STEP = 1e-6
 
 class SimulationError(RuntimeError):
     """A simulation stopped before the end of its time span (raised when ``throw=True``)."""
+
+
+class _CallbackFailed(Exception):
+    """The user's progress callback raised (re-raised unchanged by :func:`simulate`)."""
+
+    def __init__(self, exc: BaseException):
+        super().__init__(str(exc))
+        self.exc = exc
 
 
 class _Stop(Exception):
@@ -197,6 +214,8 @@ def simulate(
     cs = CompiledSystem(system, params)
     y0 = initial_state(system, x0, mode0)
     samples = _sample_times(t_eval, samples_per_period, cs.period, t0, t1)
+    check_time_range(cs, options, t0, t1)
+    check_initial_state(cs, mode0, t0, y0)
     if include_events is None:
         include_events = samples is None
     if cs.period is None and options.max_step is None and cs.depends_on_time():
@@ -250,6 +269,54 @@ def run_compiled(
     _check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
     recorder = Recorder(len(cs.names), [m.name for m in cs.modes], run.outputs, sink, keep_last, MAX_SAMPLES)
     return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
+
+
+def step_bound(cs: CompiledSystem, options: SolverOptions, t0: float, t1: float) -> float:
+    """IDA's step bound [s]: ``max_step``, else a sixteenth of the period, else a fiftieth of the span."""
+    return options.max_step or (cs.period / 16.0 if cs.period else (t1 - t0) / 50.0)
+
+
+def check_time_range(cs: CompiledSystem, options: SolverOptions, t0: float, t1: float) -> None:
+    """Refuse a time range whose steps cannot be resolved in floating point (``ValueError``)."""
+    h = step_bound(cs, options, t0, t1)
+    tmax = max(abs(t0), abs(t1))
+    spacing = math.ulp(tmax)
+    what = (
+        f"the step bound {h:.3g} s (a sixteenth of the forcing period {cs.period:.3g} s)"
+        if cs.period and not options.max_step
+        else f"the step bound {h:.3g} s"
+    )
+    if h < MIN_STEP:
+        raise ValueError(
+            f"{what} is below {MIN_STEP:g} s: too short to integrate in floating point "
+            "(check the forcing frequency and the time scale of the model)"
+        )
+    if h < RESOLVED_STEPS * spacing:
+        raise ValueError(
+            f"{what} is below {RESOLVED_STEPS:g} times the floating-point resolution of t near "
+            f"t = {tmax:.3g} s ({spacing:.3g} s): the steps cannot be resolved there; start the time "
+            f"span nearer 0 (e.g. shift it by a multiple of the period) or lengthen the steps"
+        )
+
+
+def check_initial_state(cs: CompiledSystem, mode: str, t0: float, y0: np.ndarray) -> None:
+    """Refuse an initial state at which an output of ``mode`` cannot be evaluated (``ValueError``):
+    the first sample would fail after the run. Failures of the equations are the run's to report."""
+    cm = cs.modes[cs.mode_id(mode)]
+    try:
+        y = cm.solve_algebraic(t0, np.asarray(y0, dtype=float))
+    except (AlgebraicSolveError, ArithmeticError, ValueError):
+        return
+    v = [t0, *y.tolist()]
+    for o in cs.system.outputs:
+        try:
+            cm.outputs[o](v)
+        except (ArithmeticError, ValueError) as exc:
+            big = ", ".join(f"{n} = {x:.3g}" for n, x in zip(cs.names, y, strict=False) if abs(x) > 1e100)
+            raise ValueError(
+                f"the initial state cannot be evaluated: output `{o}` of mode `{cm.name}` at t = {t0:g} "
+                f"fails ({type(exc).__name__}: {exc})" + (f"; out of range: {big}" if big else "")
+            ) from None
 
 
 def _check_sink(sink, keep_last) -> None:
@@ -355,10 +422,13 @@ class _Run:
         self.record_steps = samples is None
         self.max_transitions = max_transitions
         self.progress = progress
-        span = t1 - t0
-        self.max_step = options.max_step or (cs.period / 16.0 if cs.period else span / 50.0)
-        self.zeno_window = options.zeno_window or 1e-6 * (cs.period or span)
+        self.max_step = step_bound(cs, options, t0, t1)
+        # Without a period the window is absolute (a fraction of the span would call any run long
+        # enough a Zeno burst).
+        self.zeno_window = options.zeno_window or (1e-6 * cs.period if cs.period else 1e-6)
         self.solvers: dict[int, ModeSolver] = {}
+        self.careful: dict[int, ModeSolver] = {}  # solvers with a small first step (see segment)
+        self.budget: Budget | None = None
         self.events: list[TransitionRecord] = []
         self.recent = deque(maxlen=options.zeno_count)
         self.nfev = self.njev = self.n_steps = 0
@@ -367,8 +437,9 @@ class _Run:
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
 
     # ------------------------------------------------------------------
-    def solver(self, mode: int) -> ModeSolver:
-        s = self.solvers.get(mode)
+    def solver(self, mode: int, careful: bool = False) -> ModeSolver:
+        store = self.careful if careful else self.solvers
+        s = store.get(mode)
         if s is None:
             cm = self.cs.modes[mode]
             # Slave variables are re-solved at every sample and switch; in IDA's error test their
@@ -381,9 +452,10 @@ class _Run:
                 rtol=self.opt.rtol,
                 atol=atol,
                 max_step=self.max_step,
-                max_num_steps=self.opt.max_num_steps,
+                max_num_steps=min(self.opt.max_num_steps, self.opt.max_steps),
+                first_step=CAREFUL_FIRST_STEP * self.max_step if careful else 0.0,
             )
-            self.solvers[mode] = s
+            store[mode] = s
         return s
 
     def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
@@ -448,6 +520,7 @@ class _Run:
         index to the safe sign reported to IDA while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
+        unresolved: list[str] = []  # switches of the chain decided within a guard's noise level
         pending = len(self.events) - 1 if after_switch else None
         while True:
             cm = self.cs.modes[mode]
@@ -472,6 +545,7 @@ class _Run:
                     s = lead_sign(series, eta)
                     if d != 0 and s == d:
                         fire = g
+                        unresolved.append(f"`{g.name}` of mode `{cm.name}` ({h:.3g} within {eta:.3g})")
                         break
                     disarmed[g.index] = s if s != 0 else (-float(d) if d else 1.0)
                 elif d != 0 and d * h > 0:
@@ -497,6 +571,15 @@ class _Run:
                         Status.ZENO,
                         f"Zeno point at t={t!r}: transition `{fire.name}` of mode `{cm.name}` fires again at "
                         "the instant it was taken (switches accumulate here)",
+                    )
+                if unresolved:
+                    raise _Stop(
+                        Status.NO_ADMISSIBLE_MODE,
+                        f"no admissible mode at t={t!r}: the state goes around {path} on switches decided "
+                        f"within the guards' noise levels ({'; '.join(unresolved)}; noise = guard_noise x "
+                        "sum |dh/dy| (atol + rtol |y|)): the tolerances cannot resolve these guards here "
+                        "(a large gradient of a guard, or a band between guards narrower than their noise); "
+                        "tighten rtol/atol (--rtol, --atol) or rescale the model",
                     )
                 raise _Stop(
                     Status.NO_ADMISSIBLE_MODE,
@@ -554,6 +637,7 @@ class _Run:
         t, y, mode = self.t0, y0, mode0
         start_mode = self.cs.modes[mode0].name
         status, message = Status.COMPLETED, "reached the end of the time span"
+        self.budget = Budget(self.opt, self.t0, self.t1)
         try:
             mode, y, yp, disarmed = self.enter(mode, t, y, after_switch=False)
             self.start = (t, y, mode)
@@ -565,6 +649,12 @@ class _Run:
         except _Stop as stop:
             status, message = stop.status, stop.message
             t, y, mode = self.current
+        except BudgetExceeded as exc:
+            t, y, mode = self.current
+            status = Status.STEP_LIMIT if exc.kind == "steps" else Status.TIME_LIMIT
+            message = exc.message + (self.why_slow(t, y, mode) if exc.kind == "steps" else "")
+        except _CallbackFailed as exc:
+            raise exc.exc from None
         except (ArithmeticError, ValueError) as exc:
             # raised while evaluating the model's expressions (division by zero, log of a
             # negative number, overflow, a negative base to a fractional power, ...)
@@ -588,16 +678,19 @@ class _Run:
             self.record(ts, ys, m)
             self.next_sample += 1
 
-    def segment(self, t, y, yp, mode, disarmed):
-        """Integrate in ``mode`` from ``(t, y)`` up to the next switch or the end."""
+    def segment(self, t, y, yp, mode, disarmed, careful: bool = False):
+        """Integrate in ``mode`` from ``(t, y)`` up to the next switch or the end (``careful``:
+        with a small first step, after IDA failed on its own first step)."""
         cm = self.cs.modes[mode]
-        solver = self.solver(mode)
+        solver = self.solver(mode, careful)
         solver.armed[:] = True
         for k, s in disarmed.items():
             solver.armed[k] = False
             solver.safe[k] = s
         noise = {k: self.noise(cm, k, t, y) for k in disarmed}
         solver.start(t, y, yp)
+        t_start = t
+        where = f" in mode `{cm.name}`"
         try:
             while True:
                 one_step = self.record_steps or bool(disarmed)
@@ -608,14 +701,23 @@ class _Run:
                 t_prev = self.current[0]
                 r = solver.step(tout, self.t1, one_step=one_step)
                 self.n_steps += 1
+                self.budget.check(self.nfev + solver.nfev_last, self.current[0], where)
                 if r.status == -1 and r.t > self.current[0]:
-                    # max_num_steps reached within one call but time advanced: go on from there
+                    # max_num_steps reached within one call but time advanced: go on (within max_steps)
                     self.current = (r.t, r.y, mode)
                     continue
+                if r.status in (-3, -4) and self.current[0] == t_start and not careful:
+                    # Failed on the first step: IDA's own first step can be far too large (a state at
+                    # rest, a strong forcing). Restart once with a small first step.
+                    return self.segment(t, y, yp, mode, disarmed, careful=True)
                 if r.status < 0:
+                    t_fail = r.t if math.isfinite(r.t) else self.current[0]
                     raise _Stop(
                         Status.SOLVER_FAILED,
-                        f"IDA failed in mode `{cm.name}` at t={r.t!r}: {r.message} (status {r.status})",
+                        f"IDA failed in mode `{cm.name}` at t={t_fail!r}"
+                        + (" (also with a small first step)" if careful and t_fail == t_start else "")
+                        + f": {explain(r.status, r.message)}"
+                        + self.advice(r.status),
                     )
                 if not np.all(np.isfinite(r.y)):
                     raise _Stop(
@@ -730,8 +832,30 @@ class _Run:
             return
         frac = (t - self.t0) / (self.t1 - self.t0)
         if frac >= self._next_progress:
-            self.progress(min(frac, 1.0))
+            try:
+                self.progress(min(frac, 1.0))
+            except Exception as exc:  # the caller's, not the model's: re-raised unchanged
+                raise _CallbackFailed(exc) from exc
             self._next_progress = frac + 0.005
+
+    def advice(self, status: int) -> str:
+        """What to change after IDA failed with ``status``."""
+        if status in (-3, -4):
+            return (
+                f"; try another rtol (--rtol; it is {self.opt.rtol:g}) or a smaller step bound "
+                "(SolverOptions.max_step), and check the parameters"
+            )
+        return ""
+
+    def why_slow(self, t: float, y: np.ndarray, mode: int) -> str:
+        """Why a run used up its steps (see :func:`hybrid._linear.fast_dynamics`)."""
+        if self.nfev <= 0 or not t > self.t0:
+            return ""
+        quad = {self.cs.names.index(q) for q in self.cs.system.quadratures}
+        per = (t - self.t0) / self.nfev
+        return fast_dynamics(
+            self.cs.modes[mode], t, y, quad, period=self.cs.period, per_eval=per, max_step=self.max_step
+        )
 
     def finish(self, t, y, mode, status, message, start_mode, throw) -> Trajectory:
         cs = self.cs

@@ -21,7 +21,9 @@ class Status(enum.IntEnum):
     ALGEBRAIC_FAILED = -4
     MAX_TRANSITIONS = -5
     EVALUATION_FAILED = -6
-    MAX_SAMPLES = -7
+    STEP_LIMIT = -7
+    TIME_LIMIT = -8
+    MAX_SAMPLES = -9
 
 
 @dataclass(frozen=True)

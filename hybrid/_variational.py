@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._budget import Budget
 from ._compiled import CompiledMode, CompiledSystem
 from ._dae import SensitivitySolver
 from ._expr import compile_scalar, diff
@@ -154,7 +155,9 @@ def saltation(
     denom = h_t + h_y @ f_minus
     if denom == 0.0:
         raise ZeroDivisionError(
-            f"switch `{first.guard}` at t={t!r} is tangent to the flow (grazing): its saltation matrix is unbounded"
+            f"grazing switch: the guard of `{first.guard}` at t={t!r} has a zero rate along the flow where "
+            "it fires (the orbit touches it tangentially, or the guard is a step such as sign(...)), so its "
+            "saltation matrix is undefined"
         )
     jump = f_plus - A @ f_minus - b
     return A[ix] + np.outer(jump[s], h_y[s]) / denom
@@ -202,8 +205,9 @@ class Sensitivity:
                 atol=atol,
                 atol_sens=o.rtol,
                 max_step=self.max_step,
-                max_num_steps=o.max_num_steps,
+                max_num_steps=min(o.max_num_steps, o.max_steps),
             )
+            self._solvers[m].period = self.cs.period
         return self._solvers[m]
 
     def fundamental(
@@ -235,7 +239,16 @@ class Sensitivity:
         ndarray, shape (len(s), len(s))
             Columns of slave variables of ``mode0`` are zero (the start state is
             projected onto ``mode0``'s constraint manifold).
+
+        Raises
+        ------
+        hybrid._budget.BudgetExceeded
+            The run exhausted ``options.max_steps`` or ``max_wall_time``, or a
+            :func:`hybrid.time_limit` ran out.
+        ZeroDivisionError
+            A switch is tangent to the flow (grazing): its saltation matrix is undefined.
         """
+        budget = Budget(self.options, t0, t1)
         cs, s = self.cs, self.s
         m = cs.mode_index[mode0]
         y = np.concatenate([np.asarray(y0, dtype=float), extend])
@@ -251,13 +264,13 @@ class Sensitivity:
         for chain in chains:
             te = chain[0].t
             if te > t:
-                _, Y = self._solver(m).propagate(t, y, Y, te)
+                _, Y = self._solver(m).propagate(t, y, Y, te, budget)
             # Switches at t0 (an inadmissible start state) do not move with y0.
             Y = saltation(cs, chain, extend, s, timed=te > t0, resets=self._resets) @ Y
             y = np.concatenate([chain[-1].x_plus, extend])
             m = cs.mode_index[chain[-1].target]
             t = te
         if t1 > t:
-            _, Y = self._solver(m).propagate(t, y, Y, t1)
+            _, Y = self._solver(m).propagate(t, y, Y, t1, budget)
         self.nfev = sum(sv.nfev for sv in self._solvers.values())
         return Y

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._budget import time_limit
 from ._expr import ExpressionError
 from ._io import (
     EventsCSVWriter,
@@ -159,6 +160,28 @@ def _add_tolerances(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_budget(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--max-time",
+        type=_positive_float,
+        default=SolverOptions.max_wall_time,
+        metavar="SECONDS",
+        help=f"wall-clock limit of the whole command (default {SolverOptions.max_wall_time:g} s)",
+    )
+    p.add_argument(
+        "--max-steps",
+        type=_positive_int,
+        default=SolverOptions.max_steps,
+        metavar="N",
+        help="work limit of each integration, in IDA residual evaluations "
+        f"(default {SolverOptions.max_steps:g})",
+    )
+
+
+def _budget_options(args) -> dict:
+    return {"max_steps": args.max_steps, "max_wall_time": args.max_time}
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hybrid", description="Event-driven simulation of stick-slip (hybrid) systems on SUNDIALS IDA."
@@ -189,6 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
     )
+    _add_budget(p)
 
     p = sub.add_parser("orbit", help="periodic orbit at one forcing frequency, with its Floquet multipliers")
     _add_model_args(p)
@@ -213,6 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
     p.add_argument("--json", action="store_true", help="print the orbit as JSON on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+    _add_budget(p)
 
     p = sub.add_parser("frc", help="frequency-response curve: periodic orbits continued in Omega")
     _add_model_args(p, omega=False)
@@ -231,6 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
     )
+    _add_budget(p)
 
     sub.add_parser("models", help="list the built-in models")
     return parser
@@ -286,7 +312,7 @@ def cmd_simulate(args) -> int:
         )
     x0 = {n: 0.0 for n in system.variable_names}
     x0.update(_pairs(args.x0, "--x0"))
-    options = SolverOptions(rtol=args.rtol, atol=args.atol)
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
     out = _output_dir(system, args)
     _announce(system, preset, params)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
@@ -307,6 +333,7 @@ def cmd_simulate(args) -> int:
     with (
         TrajectoryCSVWriter(out / "trajectory.csv", system) as samples_csv,
         EventsCSVWriter(out / "events.csv", system) as events_csv,
+        time_limit(args.max_time),
     ):
         sink = Tee(samples_csv, events_csv, at_start, *([history] if history is not None else []))
         traj = simulate(
@@ -460,19 +487,20 @@ def cmd_orbit(args) -> int:
     guess = {n: 0.0 for n in system.variable_names}
     guess.update(_pairs(args.x0, "--x0"))
     initial_state(system, guess, mode0)  # unknown or non-finite values -> ValueError
-    options = SolverOptions(rtol=args.rtol, atol=args.atol)
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
     out = _output_dir(system, args)
     _announce(system, preset, params)
     t0 = time.perf_counter()
-    orbit = periodic_orbit(
-        system,
-        params,
-        guess,
-        mode0,
-        transient_periods=args.transient,
-        options=options,
-        samples_per_period=spp,
-    )
+    with time_limit(args.max_time):
+        orbit = periodic_orbit(
+            system,
+            params,
+            guess,
+            mode0,
+            transient_periods=args.transient,
+            options=options,
+            samples_per_period=spp,
+        )
     wall = time.perf_counter() - t0
     summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}
     summary["multiplier_moduli"] = [float(abs(z)) for z in orbit.multipliers]
@@ -578,13 +606,14 @@ def cmd_frc(args) -> int:
             raise UsageError(f"`--omega-range A B` needs A < B, got {lo:g} {hi:g}")
     else:
         lo, hi = default_range(system, params)
-    options = SolverOptions(rtol=args.rtol, atol=args.atol)
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
     out = _output_dir(system, args)
     _announce(system, preset, params)
     _info(f"continuation in Omega from {lo:.6g} to {hi:.6g} rad/s")
     bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
     t0 = time.perf_counter()
-    fr = frequency_response(system, params, (lo, hi), options=options, progress=bar)
+    with time_limit(args.max_time):
+        fr = frequency_response(system, params, (lo, hi), options=options, progress=bar)
     bar(1.0)
     wall = time.perf_counter() - t0
 

@@ -242,8 +242,8 @@ def cli_arguments(draw, out: str) -> list[str]:
         if command == "simulate" and opt[0] in ("--transient",):
             continue
         argv += list(opt)
-    # keep each input cheap: short runs, few periods
-    argv += ["--out", out, "--no-plot"]
+    # keep each input cheap: short runs, few periods, a small budget
+    argv += ["--out", out, "--no-plot", "--max-time", "5", "--max-steps", "200000"]
     argv += ["--periods", "0.5"] if command == "simulate" else ["--transient", "0"]
     return argv
 

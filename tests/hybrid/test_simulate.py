@@ -624,8 +624,8 @@ def test_solver_options_are_validated(kwargs, match):
 
 
 def test_solver_options_reject_unknown_keywords():
-    with pytest.raises(TypeError, match=r"max_steps"):
-        SolverOptions(max_steps=1.0)
+    with pytest.raises(TypeError, match=r"max_step_count"):
+        SolverOptions(max_step_count=1)
 
 
 @pytest.mark.parametrize(
