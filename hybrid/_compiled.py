@@ -283,6 +283,24 @@ class CompiledSystem:
         self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
         self.period = system.period_value(self.params)
         self.names = tuple(system.variable_names) + self.free
+        self._affine = None
+
+    def affine(self) -> list:
+        """Every mode as an exact affine flow (:func:`hybrid._exact.affine_system`), analysed once.
+
+        Raises
+        ------
+        hybrid._exact.NotAffineError
+            Naming the first mode and term that is not affine.
+        """
+        if self._affine is None:
+            from ._exact import affine_system  # the exact integrator builds on this module
+
+            try:
+                self._affine = affine_system(self)
+            except ValueError as exc:
+                raise type(exc)(f"model `{self.system.name}`: {exc}") from None
+        return self._affine
 
     def depends_on_time(self) -> bool:
         """True if an equation or guard of any mode depends explicitly on ``t``."""

@@ -21,6 +21,10 @@ def _positive(name: str, value, *, allow_none: bool = False) -> None:
         raise ValueError(f"SolverOptions: `{name}` must be a finite number > 0, got {value!r}")
 
 
+#: Integrators of a mode's flow: IDA (any model) and the exact flow of affine modes.
+INTEGRATORS = ("ida", "exact")
+
+
 @dataclass(frozen=True)
 class SolverOptions:
     """Options of :func:`hybrid.simulate`.
@@ -68,6 +72,12 @@ class SolverOptions:
         Safety factor on the noise level of a guard, ``sum_j |dh/dy_j|
         (atol_j + rtol |y_j|)``: within it a guard counts as zero at a
         switch and stays disarmed until it has left it.
+    integrator : {"ida", "exact"}
+        ``"ida"`` (default): SUNDIALS IDA, any model. ``"exact"``: matrix
+        exponentials and exact guard roots, for models whose modes and guards
+        are all affine in the state with time only in sin/cos of one forcing
+        frequency (:mod:`hybrid._exact`); another model is refused naming its
+        first non-affine term. The tolerances do not apply to it.
     """
 
     rtol: float = 1e-8
@@ -82,6 +92,7 @@ class SolverOptions:
     max_chain: int = 8
     taylor_order: int = 4
     guard_noise: float = 10.0
+    integrator: str = "ida"
     _atol_map: Mapping[str, float] = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -103,6 +114,10 @@ class SolverOptions:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")
+        if self.integrator not in INTEGRATORS:
+            raise ValueError(
+                f"SolverOptions: `integrator` must be one of {', '.join(INTEGRATORS)}, got {self.integrator!r}"
+            )
         if self.taylor_order < 2:
             raise ValueError(
                 "SolverOptions: `taylor_order` must be >= 2 (a switch into stick needs the second order)"

@@ -224,6 +224,8 @@ class Shooter:
         self.free = free
         self.names = system.variable_names
         self.set_params(params)
+        if options.integrator == "exact":
+            self.cs.affine()  # refused before any run if not affine (NotAffineError)
         self.ext = CompiledSystem(system, self.params, (free,) if free else ())
         T = self.period
         self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)

@@ -30,6 +30,7 @@ import numpy as np
 from ._budget import Budget, BudgetExceeded
 from ._compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
 from ._dae import ROOT, TSTOP, ModeSolver, StepResult, explain
+from ._exact import ExactModeSolver
 from ._linear import fast_dynamics
 from ._options import SolverOptions
 from ._record import MAX_SAMPLES, MAX_STREAMED_SAMPLES, Recorder, SampleCapReached, Sink
@@ -45,6 +46,7 @@ RESOLVED_STEPS = 1e6
 MIN_STEP = 1e-100
 #: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
 CAREFUL_FIRST_STEP = 1e-6
+
 
 class SimulationError(RuntimeError):
     """A simulation stopped before the end of its time span (raised when ``throw=True``)."""
@@ -212,6 +214,8 @@ def simulate(
         )
     system.mode(mode0)
     cs = CompiledSystem(system, params)
+    if options.integrator == "exact":
+        cs.affine()  # a model the exact integrator cannot take is refused before the run
     y0 = initial_state(system, x0, mode0)
     samples = _sample_times(t_eval, samples_per_period, cs.period, t0, t1)
     check_time_range(cs, options, t0, t1)
@@ -440,6 +444,8 @@ class _Run:
     def solver(self, mode: int, careful: bool = False) -> ModeSolver:
         store = self.careful if careful else self.solvers
         s = store.get(mode)
+        if s is None and self.opt.integrator == "exact":
+            s = store[mode] = ExactModeSolver(self.cs.affine()[mode], max_step=self.max_step)
         if s is None:
             cm = self.cs.modes[mode]
             # Slave variables are re-solved at every sample and switch; in IDA's error test their

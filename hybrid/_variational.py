@@ -191,9 +191,38 @@ class Sensitivity:
         self.max_step = max_step
         self._solvers: dict[int, SensitivitySolver] = {}
         self._resets = _ResetJacobians()
+        self._exact_key: tuple | None = None
+        self._exact_modes: dict = {}
         self.nfev = 0
 
-    def _solver(self, m: int) -> SensitivitySolver:
+    def _exact_solver(self, m: int, extend: np.ndarray):
+        """The exact flow's sensitivity in mode ``m`` at the free parameters' values ``extend``."""
+        from ._exact import ExactSensitivity  # the exact integrator builds on this module's inputs
+
+        key = tuple(float(v) for v in extend)
+        if self._exact_key != key:
+            cs = self.cs
+            params = {**cs.params, **dict(zip(cs.free, key, strict=True))}
+            base = CompiledSystem(cs.system, params).affine()
+            pm = None
+            if cs.free:
+                if len(cs.free) > 1:
+                    raise ValueError("the exact integrator differentiates by one free parameter at most")
+                p = cs.free[0]
+                delta = 1e-6 * max(abs(params[p]), 1e-3)
+                plus = CompiledSystem(cs.system, {**params, p: params[p] + delta}).affine()
+                minus = CompiledSystem(cs.system, {**params, p: params[p] - delta}).affine()
+                pm = (plus, minus, delta)
+            self._exact_modes = {
+                k: ExactSensitivity(base[k], self.s, None if pm is None else (pm[0][k], pm[1][k], pm[2]))
+                for k in range(len(base))
+            }
+            self._exact_key = key
+        return self._exact_modes[m]
+
+    def _solver(self, m: int, extend: np.ndarray | None = None) -> SensitivitySolver:
+        if self.options.integrator == "exact":
+            return self._exact_solver(m, np.zeros(0) if extend is None else extend)
         if m not in self._solvers:
             o = self.options
             n = self.cs.modes[m].n
@@ -264,13 +293,13 @@ class Sensitivity:
         for chain in chains:
             te = chain[0].t
             if te > t:
-                _, Y = self._solver(m).propagate(t, y, Y, te, budget)
+                _, Y = self._solver(m, extend).propagate(t, y, Y, te, budget)
             # Switches at t0 (an inadmissible start state) do not move with y0.
             Y = saltation(cs, chain, extend, s, timed=te > t0, resets=self._resets) @ Y
             y = np.concatenate([chain[-1].x_plus, extend])
             m = cs.mode_index[chain[-1].target]
             t = te
         if t1 > t:
-            _, Y = self._solver(m).propagate(t, y, Y, t1, budget)
+            _, Y = self._solver(m, extend).propagate(t, y, Y, t1, budget)
         self.nfev = sum(sv.nfev for sv in self._solvers.values())
         return Y

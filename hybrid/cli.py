@@ -32,7 +32,7 @@ from ._io import (
     write_trajectory_csv,
 )
 from ._loader import load_system
-from ._options import SolverOptions
+from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
 from ._progress import ProgressBar
 from ._record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
@@ -176,10 +176,26 @@ def _add_budget(p: argparse.ArgumentParser) -> None:
         help="work limit of each integration, in IDA residual evaluations "
         f"(default {SolverOptions.max_steps:g})",
     )
+    p.add_argument(
+        "--integrator",
+        choices=INTEGRATORS,
+        default="ida",
+        help="ida (default, any model) or exact (matrix exponentials: models affine in the state, "
+        "forced at one frequency)",
+    )
+
+
+def _check_integrator(system: HybridSystem, params: dict[str, float], options: SolverOptions) -> None:
+    """Refuse, before any run, a model the chosen integrator cannot take (NotAffineError, exit 2)."""
+    if options.integrator == "exact":
+        from ._compiled import CompiledSystem
+
+        CompiledSystem(system, params).affine()
 
 
 def _budget_options(args) -> dict:
-    return {"max_steps": args.max_steps, "max_wall_time": args.max_time}
+    """The :class:`SolverOptions` fields set by the run options (budget and integrator)."""
+    return {"max_steps": args.max_steps, "max_wall_time": args.max_time, "integrator": args.integrator}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -313,6 +329,7 @@ def cmd_simulate(args) -> int:
     x0 = {n: 0.0 for n in system.variable_names}
     x0.update(_pairs(args.x0, "--x0"))
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
+    _check_integrator(system, params, options)
     out = _output_dir(system, args)
     _announce(system, preset, params)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
@@ -488,6 +505,7 @@ def cmd_orbit(args) -> int:
     guess.update(_pairs(args.x0, "--x0"))
     initial_state(system, guess, mode0)  # unknown or non-finite values -> ValueError
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
+    _check_integrator(system, params, options)
     out = _output_dir(system, args)
     _announce(system, preset, params)
     t0 = time.perf_counter()
@@ -607,6 +625,7 @@ def cmd_frc(args) -> int:
     else:
         lo, hi = default_range(system, params)
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
+    _check_integrator(system, params, options)
     out = _output_dir(system, args)
     _announce(system, preset, params)
     _info(f"continuation in Omega from {lo:.6g} to {hi:.6g} rad/s")

@@ -147,3 +147,73 @@ def test_non_affine_modes_are_refused_naming_the_term(extra, match):
     with pytest.raises(NotAffineError, match=match) as info:
         affine_mode(cs.modes[0], ("P",))
     assert str(info.value).startswith("mode `free`: ")
+
+
+# ----------------------------------------------------------------------------
+# The exact integrator inside the engine: simulate and periodic orbits against IDA
+# ----------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("name", "preset", "omega"),
+    [("absorber", "standard", 0.854), ("isolator", "standard", 0.854), ("coulomb", "forced", 0.8)],
+)
+def test_exact_orbits_agree_with_ida(name, preset, omega):
+    from hybrid import SolverOptions, periodic_orbit
+
+    system = getattr(models, name)()
+    p = system.preset(preset, Omega=omega)
+    tight = SolverOptions(rtol=1e-12, atol=1e-14)
+    ref = periodic_orbit(system, p, options=tight)
+    ex = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))
+    assert ref.converged and ex.converged, (ref.message, ex.message)
+    assert ex.residual <= 1e-12  # the exact map: Newton converges to rounding
+    assert ex.transitions_per_period == ref.transitions_per_period
+    scale = max(abs(v) for v in ref.amplitude.values())
+    for k, v in ref.amplitude.items():
+        assert ex.amplitude[k] == pytest.approx(v, abs=2e-8 * scale), k
+    mu_ref = np.sort_complex(ref.floquet_multipliers)
+    mu_ex = np.sort_complex(ex.floquet_multipliers)
+    assert np.max(np.abs(mu_ref - mu_ex)) <= 1e-7
+    assert ex.stability == ref.stability
+
+
+def test_exact_integrator_refuses_a_non_affine_model_before_running():
+    from hybrid import SolverOptions, simulate
+
+    system = _oscillator(extra={"v": "-w0**2*x**3"})
+    with pytest.raises(NotAffineError, match=r"mode `free`: derivative of `v` is not affine in `x`"):
+        simulate(system, PARAMS, (0.0, 1.0), {"x": 1.0, "v": 0.0}, options=SolverOptions(integrator="exact"))
+
+
+def test_cli_integrator_exact(tmp_path, capsys):
+    from hybrid.cli import main
+
+    code = main(
+        [
+            "orbit",
+            "absorber",
+            "--omega",
+            "0.854",
+            "--integrator",
+            "exact",
+            "--json",
+            "--out",
+            str(tmp_path),
+            "--no-plot",
+        ]
+    )
+    out = capsys.readouterr().out
+    assert code == 0
+    import json
+
+    d = json.loads(out)
+    assert d["converged"] and d["transitions_per_period"] == 4 and d["residual"] <= 1e-12
+    bad = tmp_path / "cubic.toml"
+    bad.write_text(
+        '[model]\nname = "cubic"\nperiod = "2*pi/W"\ninitial_mode = "m"\n[variables.x]\n[variables.v]\n'
+        '[parameters.W]\n[presets.standard]\nW = 1.0\n[modes.m]\nderivatives = { x = "v", v = "-x**3 + sin(W*t)" }\n'
+    )
+    code = main(
+        ["simulate", str(bad), "--integrator", "exact", "--out", str(tmp_path / "o"), "--periods", "1"]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and "derivative of `v` is not affine in `x`" in err and err.count("\n") == 1
