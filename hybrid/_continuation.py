@@ -447,17 +447,27 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
     def stop(reason: str, message: str) -> None:
         branch.status, branch.reason, branch.message = "stopped", reason, message
 
-    if not first.converged:
+    # An orbit that Newton's method left just above its tolerance (noise of the map) is
+    # finished by the bordered corrector at the same parameter.
+    near = math.isfinite(first.residual) and first.residual <= 1e3 * st.tol
+    if not first.converged and not near:
         stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}")
         return
     pt = _Point(first.x0.copy(), a, first.mode0, first.t0 / first.period, orbit=first)
-    add(first)
-    size0 = max(_size(first), 1e-300)
     try:
         pt.tangent = c.tangent(pt, None, direction)
+        if not first.converged:
+            pt = c.correct(pt, 0.0, samples)
+            first = pt.orbit
+            pt.tangent = c.tangent(pt, None, direction)
     except (_Fail, *_FAILURES) as exc:
-        stop("stalled", f"stopped at {parameter}={a:.8g}: no tangent to the branch: {exc}")
+        if not first.converged:
+            stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}; {exc}")
+        else:
+            stop("stalled", f"stopped at {parameter}={a:.8g}: no tangent to the branch: {exc}")
         return
+    add(first)
+    size0 = max(_size(first), 1e-300)
     ds_cur = st.ds
     rephased = False
     n_points, fails = 1, 0

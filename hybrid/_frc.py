@@ -141,6 +141,10 @@ class FrequencyResponse:
                     "row": offset + sp.index,
                     "kind": sp.kind,
                     self.parameter: sp.parameter,
+                    "status": sp.status,
+                    "accuracy": sp.accuracy,
+                    "interval_lo": sp.interval[0],
+                    "interval_hi": sp.interval[1],
                     "stability": b.points[sp.index].stability,
                     "description": sp.description,
                 }

@@ -269,9 +269,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
         try:
             pt = c.correct(a, s, samples)
         except fail_types as exc:
-            return _Located(
-                hi[1], "bracketed", 0.5 * (p_lo + p_hi), (p_lo, p_hi), f"corrector failed: {exc}"
-            )
+            return _Located(hi[1], "bracketed", 0.5 * (p_lo + p_hi), (p_lo, p_hi), f"corrector failed: {exc}")
         if signature(pt.orbit) == sig_a:
             lo = (s, pt)
         else:
