@@ -184,7 +184,10 @@ class ContinuationOptions:
             )
         if self.max_growth <= 1:
             raise ValueError(f"ContinuationOptions: `max_growth` must be > 1, got {self.max_growth!r}")
-        for name in ("max_points", "max_iter", "locate_max_iter", "max_failures", "samples_per_period"):
+        from ._orbit import check_samples  # here: _orbit imports this module
+
+        check_samples(self.samples_per_period)
+        for name in ("max_points", "max_iter", "locate_max_iter", "max_failures"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"ContinuationOptions: `{name}` must be an integer >= 1, got {v!r}")

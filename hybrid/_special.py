@@ -244,11 +244,17 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     toward = 1.0 if with_lo else -1.0  # from the side with the modes towards the side without
     slope = (b.p - a.p) / ds if ds > 0 else 0.0
     eps = 0.25 * tol_p / max(abs(slope), 1e-300)  # tol_p in arclength
-    root_prev = None
+
+    def past():
+        """The orbit reported at the point: the first past it with ``b``'s signature (else ``b``;
+        an orbit in between, e.g. one phase of two left, is not the branch's)."""
+        return hi[1] if signature(hi[1].orbit) == sig_b else b
+
+    root_prev, fresh = None, False  # fresh: the last probe gave the secant a new point
     for _ in range(settings.locate_max_iter):
         p_lo, p_hi = lo[1].p, hi[1].p
         if abs(p_hi - p_lo) <= tol_p or hi[0] - lo[0] <= 1e-14 * ds:
-            out = _Located(hi[1], "located", 0.5 * (p_lo + p_hi), (p_lo, p_hi))
+            out = _Located(past(), "located", 0.5 * (p_lo + p_hi), (p_lo, p_hi))
             out.accuracy = 0.5 * abs(p_hi - p_lo)
             return out
         s = lo[0] + 0.5 * (hi[0] - lo[0])
@@ -256,12 +262,13 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
             (s1, f1, q1, _), (s2, f2, q2, _) = hist[-2], hist[-1]
             root = s2 - f2 * (s2 - s1) / (f2 - f1)
             p_root = q2 + (q2 - q1) * (root - s2) / (s2 - s1)
-            if root_prev is not None and abs(p_root - root_prev) <= tol_p:
+            inside = min(p_lo, p_hi) - tol_p <= p_root <= max(p_lo, p_hi) + tol_p
+            if fresh and root_prev is not None and inside and abs(p_root - root_prev) <= tol_p:
                 iv = (min(p_lo, p_hi, p_root), max(p_lo, p_hi, p_root))
-                out = _Located(hist[-1][3], "located", p_root, iv)
+                out = _Located(past(), "located", p_root, iv)
                 out.accuracy = abs(p_root - root_prev)
                 return out
-            root_prev = p_root
+            root_prev = p_root if inside else None
             # Probe just inside the side with the modes, so that the secant's points close in.
             guess = root - toward * max(eps, 0.05 * abs(root - s2))
             if lo[0] < guess < hi[0]:
@@ -275,7 +282,8 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
         else:
             hi = (s, pt)
         f = _fraction(pt.orbit, changed) if changed else 0.0
-        if changed and f > 0:
+        fresh = bool(changed) and f > 0
+        if fresh:
             hist.append((s, f, pt.p, pt))
             hist.sort(key=lambda h: h[0] * toward)
             hist = hist[-2:]  # the two nearest the side without the modes
