@@ -10,12 +10,16 @@ from ._budget import time_limit as time_limit
 from ._continuation import Branch as Branch
 from ._continuation import SpecialPoint as SpecialPoint
 from ._continuation import continuation as continuation
+from ._continuation import forcing_parameter as forcing_parameter
 from ._expr import FUNCTIONS as FUNCTIONS
 from ._expr import ExpressionError as ExpressionError
+from ._frc import FrequencyResponse as FrequencyResponse
+from ._frc import frequency_response as frequency_response
 from ._io import EventsCSVWriter as EventsCSVWriter
 from ._io import TrajectoryCSVWriter as TrajectoryCSVWriter
 from ._loader import load_system as load_system
 from ._loader import system_from_dict as system_from_dict
+from ._options import ContinuationOptions as ContinuationOptions
 from ._options import SolverOptions as SolverOptions
 from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
 from ._orbit import PeriodicOrbit as PeriodicOrbit

@@ -11,24 +11,24 @@ the same run with ``p`` appended to the state, plus the motion of ``t0`` and
 to its current size, parameter relative to the range), with step control by
 Newton's iteration count and step halving on failure.
 
-Special points are detected between consecutive points and located by
-bisection along the arclength: folds (the parameter component of the tangent
-changes sign), period doubling (``det(M + I)`` changes sign), Neimark-Sacker
-(a complex pair crosses the unit circle), and changes of the mode sequence
-(a mode gained or lost, e.g. the onset of slip; or a change of the number of
-switches per period with the same modes: grazing).
+Special points are detected between consecutive points and located along the
+arclength of the step (:mod:`hybrid._special`). A branch ends when it leaves
+the range, reaches ``max_points``, grows without bound (``"unbounded"``), or
+stalls (``max_failures`` failed steps in a row); ``Branch.reason`` says which.
+Settings are a :class:`hybrid.ContinuationOptions`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ._budget import BudgetExceeded
-from ._options import SolverOptions
+from ._expr import free_symbols
+from ._options import ContinuationOptions, SolverOptions
 from ._orbit import (
     ORBIT_OPTIONS,
     PeriodicOrbit,
@@ -42,35 +42,12 @@ from ._orbit import (
     solve_orbit,
 )
 from ._simulate import check_time_range, initial_state
+from ._special import SpecialPoint, detect, locate
 from ._system import HybridSystem
 
-__all__ = ["Branch", "SpecialPoint", "continuation"]
+__all__ = ["Branch", "SpecialPoint", "continuation", "forcing_parameter", "orbit_row"]
 
-
-@dataclass(frozen=True)
-class SpecialPoint:
-    """A bifurcation or mode-sequence change located on a branch.
-
-    Attributes
-    ----------
-    kind : str
-        ``"fold"``, ``"period-doubling"``, ``"neimark-sacker"``, ``"mode-gained"``,
-        ``"mode-lost"`` or ``"grazing"``.
-    index : int
-        Index in ``Branch.points`` of the located orbit.
-    parameter : float
-        Parameter value at the point.
-    amplitude : dict
-        ``max |x|`` per variable and output at the point.
-    description : str
-        What changes there.
-    """
-
-    kind: str
-    index: int
-    parameter: float
-    amplitude: dict
-    description: str
+_FAILURES = (ArithmeticError, RuntimeError, np.linalg.LinAlgError)
 
 
 @dataclass
@@ -90,6 +67,11 @@ class Branch:
     status : str
         ``"completed"`` (left the range or reached ``max_points``) or ``"stopped"``.
     message : str
+    reason : str
+        Why a stopped branch stopped: ``"unbounded"`` (the response grows without bound),
+        ``"stalled"`` (the corrector failed ``max_failures`` times in a row), ``"no-start"``
+        (no first orbit), ``"budget"`` (a run's budget or the deadline), ``"interrupted"``;
+        ``""`` if completed.
     """
 
     system: HybridSystem
@@ -99,6 +81,7 @@ class Branch:
     special: list = field(default_factory=list)
     status: str = "completed"
     message: str = ""
+    reason: str = ""
 
     @property
     def p(self) -> np.ndarray:
@@ -118,25 +101,7 @@ class Branch:
 
     def to_rows(self) -> list[dict]:
         """One dict per point (for CSV)."""
-        rows = []
-        for o in self.points:
-            row = {
-                self.parameter: o.params[self.parameter],
-                "stability": o.stability,
-                "transitions_per_period": o.transitions_per_period,
-                "stick_fraction": o.stick_fraction,
-                "mode_sequence": " ".join(o.mode_sequence),
-                "max_abs_multiplier": float(np.max(np.abs(o.floquet_multipliers)))
-                if o.floquet_multipliers.size
-                else float("nan"),
-                "residual": o.residual,
-            }
-            for n, v in o.amplitude.items():
-                row[f"amplitude_{n}"] = v
-            for n, v in o.half_peak_to_peak.items():
-                row[f"half_peak_to_peak_{n}"] = v
-            rows.append(row)
-        return rows
+        return [orbit_row(self.parameter, o) for o in self.points]
 
     def __repr__(self) -> str:
         kinds = ", ".join(f"{s.kind}@{s.parameter:.6g}" for s in self.special)
@@ -146,6 +111,46 @@ class Branch:
             f"Branch({self.system.name}, {self.parameter} in [{self.p.min():.6g}, {self.p.max():.6g}], "
             f"{len(self.points)} points, special: [{kinds}], {self.status})"
         )
+
+
+def orbit_row(parameter: str, o: PeriodicOrbit) -> dict:
+    """One orbit of a branch as a flat dict (a CSV row): parameter, stability, amplitudes, ..."""
+    row = {
+        parameter: o.params[parameter],
+        "stability": o.stability,
+        "transitions_per_period": o.transitions_per_period,
+        "stick_fraction": o.stick_fraction,
+        "mode_sequence": " ".join(o.mode_sequence),
+        "max_abs_multiplier": float(np.max(np.abs(o.floquet_multipliers)))
+        if o.floquet_multipliers.size
+        else float("nan"),
+        "residual": o.residual,
+    }
+    for n, v in o.amplitude.items():
+        row[f"amplitude_{n}"] = v
+    for n, v in o.half_peak_to_peak.items():
+        row[f"half_peak_to_peak_{n}"] = v
+    return row
+
+
+def forcing_parameter(system: HybridSystem) -> str:
+    """The one parameter the forcing period depends on (e.g. a forcing frequency).
+
+    Raises
+    ------
+    ValueError
+        If the model declares no period, or its period depends on no parameter or on several.
+    """
+    pe = system._cache.get("period")
+    if pe is None:
+        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+    names = sorted(free_symbols(pe) & set(system.parameter_names))
+    if len(names) != 1:
+        raise ValueError(
+            f"model `{system.name}`: its period depends on {len(names)} parameters "
+            f"({', '.join(names) or 'none'}); name the parameter to continue in"
+        )
+    return names[0]
 
 
 # ----------------------------------------------------------------------
@@ -161,13 +166,14 @@ class _Point:
 
 
 class _Continuer:
-    def __init__(self, system, params, parameter, p_range, options, tol):
+    def __init__(self, system, params, parameter, p_range, options, settings: ContinuationOptions):
         self.system = system
         self.parameter = parameter
         self.base = dict(params)
         self.a, self.b = p_range
         self.sp = abs(self.b - self.a)
-        self.tol = tol
+        self.settings = settings
+        self.tol = settings.tol
         self.sh = Shooter(system, params, options, free=parameter)
 
     def at(self, p: float) -> None:
@@ -189,13 +195,16 @@ class _Continuer:
             rhs = np.concatenate([rhs, [-g[0]]])
         return A, rhs, family
 
-    def correct(
-        self, pt: _Point, ds: float, samples: int, max_iter: int = 8, force_gauge: bool = False
-    ) -> _Point:
+    def correct(self, pt: _Point, ds: float, samples: int, force_gauge: bool = False) -> _Point:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
         Returns the converged point with its orbit and tangent (from the orbit's own Jacobian).
+        Damped Newton: an iterate whose residual is larger than the last one's is replaced by a
+        shorter step (down to 1/16); if none decreases the residual the step fails (a worse
+        iterate is never kept). Converged: residual below ``tol`` and the scaled update below
+        ``step_tol`` (or the noise level of the map, ``10 cond rtol``, if larger).
         """
+        max_iter = self.settings.max_iter
         nw = _Newton(self.sh, pt.mode)
         d = nw.d
         sy = self.scale_of(pt, d)
@@ -220,8 +229,13 @@ class _Continuer:
             res = float(np.max(np.abs(r))) / scale
             if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(sy, 1e-300):
                 raise _Fail(f"the response grows without bound near {self.parameter}={p:.8g}")
-            if prev is not None and res > prev[2] and lam > 1.0 / 16:
+            if prev is not None and res > prev[2]:
                 # Damped Newton: the map is only piecewise smooth and I - M nearly singular.
+                if lam <= 1.0 / 16:
+                    raise _Fail(
+                        f"corrector: no step decreases the residual ({prev[2]:.3g}) near "
+                        f"{self.parameter}={prev[1]:.8g}"
+                    )
                 lam *= 0.5
                 y = prev[0].copy()
                 y[d] += lam * prev[3][:-1]
@@ -239,7 +253,7 @@ class _Continuer:
             # (integration error amplified by the conditioning of the bordered system).
             sv = np.linalg.svd(Ab * D[None, :], compute_uv=False)
             kappa = sv[0] / max(sv[-1], 1e-300)
-            step_tol = max(1e-7, 10.0 * kappa * self.sh.options.rtol)
+            step_tol = max(self.settings.step_tol, 10.0 * kappa * self.sh.options.rtol)
             if res <= self.tol and gauge_ok and float(np.max(np.abs(delta / D))) <= step_tol:
                 if tr.mode_final != pt.mode:
                     raise _Fail("section reached a switch")
@@ -301,47 +315,37 @@ class _Fail(Exception):
     pass
 
 
-def _signature(o: PeriodicOrbit) -> tuple[int, frozenset]:
-    """Switch instants per period and the modes occupied for a positive time.
-
-    A mode passed through at one instant (a chained switch, e.g. slip -> stick -> slip at a
-    velocity reversal) does not count, so the loss of a stick phase is seen.
-    """
-    instants = sum(1 for e in o.trajectory.events if not e.chained)
-    return instants, frozenset(m for m, f in o.mode_fractions.items() if f > 0)
+def _size(o: PeriodicOrbit) -> float:
+    """Largest amplitude of the orbit's state variables."""
+    return max((o.amplitude[n] for n in o.state_names if n in o.amplitude), default=0.0)
 
 
-def _tests(o: PeriodicOrbit) -> tuple[float, float] | None:
-    """(det(M + I), prod over pairs (l_i l_j - 1)) on the Floquet multipliers; None on a family."""
-    if o.family:
-        return None
-    lam = o.floquet_multipliers
-    pd = float(np.real(np.prod(lam + 1.0)))
-    ns = 1.0 + 0j
-    for i in range(lam.size):
-        for j in range(i + 1, lam.size):
-            ns *= lam[i] * lam[j] - 1.0
-    return pd, float(np.real(ns))
+#: Keywords of :func:`continuation` kept from before :class:`ContinuationOptions`.
+_LEGACY = (
+    "ds",
+    "ds_min",
+    "ds_max",
+    "max_points",
+    "tol",
+    "transient_periods",
+    "samples_per_period",
+    "locate",
+)
 
 
 def continuation(
     system: HybridSystem,
     params: Mapping[str, float],
-    parameter: str = "Omega",
+    parameter: str | None = None,
     p_range: tuple[float, float] | None = None,
     *,
     x0=None,
     mode0: str | None = None,
-    ds: float = 0.02,
-    ds_min: float = 1e-7,
-    ds_max: float = 0.5,
-    max_points: int = 2000,
     options: SolverOptions | None = None,
-    tol: float = 1e-9,
-    transient_periods: int = 10,
-    samples_per_period: int = 256,
-    locate: bool = True,
+    settings: ContinuationOptions | None = None,
     progress: Callable[[float], None] | None = None,
+    on_point: Callable[[PeriodicOrbit], None] | None = None,
+    **legacy,
 ) -> Branch:
     """Continue periodic orbits in ``parameter`` from ``p_range[0]`` towards ``p_range[1]``.
 
@@ -351,37 +355,46 @@ def continuation(
         A periodically forced model.
     params : mapping
         All parameter values (the continued one is replaced by ``p_range[0]``).
-    parameter : str
-        Any parameter of the model (default the forcing frequency ``Omega``).
+    parameter : str, optional
+        Any parameter of the model (default: the one the forcing period depends on,
+        :func:`forcing_parameter`).
     p_range : (float, float)
         Start and end value; the branch stops when it leaves the range.
     x0, mode0 : optional
         Guess of the first orbit (see :func:`hybrid.periodic_orbit`).
-    ds, ds_min, ds_max : float
-        Initial, smallest and largest step in scaled arclength (state relative
-        to its size, parameter relative to ``|p_range[1] - p_range[0]|``).
-    max_points : int
-        Points computed at most (special points not counted).
     options : SolverOptions, optional
-        Tolerances (default :data:`hybrid.ORBIT_OPTIONS`).
-    tol : float
-        Newton tolerance (scaled).
-    transient_periods : int
-        Periods simulated from ``x0`` before the first orbit.
-    samples_per_period : int
-        Samples of each stored orbit's trajectory.
-    locate : bool
-        Locate special points by bisection (else report the first point past them).
+        Tolerances of the runs (default :data:`hybrid.ORBIT_OPTIONS`).
+    settings : ContinuationOptions, optional
+        Steps, tolerances, location of special points, limits of a branch.
     progress : callable, optional
         Called with the fraction of the parameter range covered.
+    on_point : callable, optional
+        Called with every orbit as it is appended to the branch (in branch order), e.g. to
+        write it at once.
+    **legacy
+        ``ds``, ``ds_min``, ``ds_max``, ``max_points``, ``tol``, ``transient_periods``,
+        ``samples_per_period``, ``locate``: override the fields of ``settings``.
 
     Returns
     -------
     Branch
+        Ends when it leaves the range, reaches ``max_points``, grows without bound (a special
+        point ``"unbounded"``; ``reason`` ``"unbounded"``) or stalls (``reason`` ``"stalled"``).
     """
     options = ORBIT_OPTIONS if options is None else options
     if not isinstance(system, HybridSystem):
         raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+    unknown = set(legacy) - set(_LEGACY)
+    if unknown:
+        raise TypeError(f"continuation() got unexpected keyword argument(s) {sorted(unknown)}")
+    if settings is None:
+        settings = ContinuationOptions()
+    elif not isinstance(settings, ContinuationOptions):
+        raise TypeError(f"`settings` must be a ContinuationOptions, got {type(settings).__name__}")
+    if legacy:
+        settings = replace(settings, **legacy)
+    if parameter is None:
+        parameter = forcing_parameter(system)
     if parameter not in system.parameter_names:
         raise ValueError(
             f"model `{system.name}` has no parameter `{parameter}`; parameters: {', '.join(system.parameter_names)}"
@@ -391,117 +404,186 @@ def continuation(
     a, b = (float(v) for v in p_range)
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
         raise ValueError(f"`p_range` must be two different finite numbers, got {p_range!r}")
-    for nm, v in (("ds", ds), ("ds_min", ds_min), ("ds_max", ds_max), ("tol", tol)):
-        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-            raise ValueError(f"`{nm}` must be a number > 0, got {v!r}")
-    if not ds_min <= ds <= ds_max:
-        raise ValueError(f"need ds_min <= ds <= ds_max, got {ds_min}, {ds}, {ds_max}")
-    check_samples(samples_per_period)
+    check_samples(settings.samples_per_period)
     start_params = system.parameter_values({**dict(params), parameter: a})
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
         raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     y0 = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
-    c = _Continuer(system, start_params, parameter, (a, b), options, tol)
+    c = _Continuer(system, start_params, parameter, (a, b), options, settings)
     for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
         c.at(p)
-        n = transient_periods + 1 if p == a else 2
+        n = settings.transient_periods + 1 if p == a else 2
         check_time_range(c.sh.cs, options, 0.0, n * c.sh.period)
     direction = 1.0 if b > a else -1.0
     branch = Branch(system, dict(start_params), parameter)
 
-    first = solve_orbit(c.sh, y0, mode0, 0.0, transient_periods, tol, 30, samples_per_period)
+    def add(orbit: PeriodicOrbit) -> int:
+        branch.points.append(orbit)
+        if on_point is not None:
+            on_point(orbit)
+        return len(branch.points) - 1
+
     try:
-        _follow(
-            c, branch, first, direction, ds, ds_min, ds_max, max_points, samples_per_period, locate, progress
+        first = solve_orbit(
+            c.sh, y0, mode0, 0.0, settings.transient_periods, settings.tol, 30, settings.samples_per_period
         )
+        _follow(c, branch, first, direction, add, progress)
     except BudgetExceeded as exc:  # the budget of a run or the computation's deadline: stop here
-        branch.status = "stopped"
+        branch.status, branch.reason = "stopped", "budget"
         last = branch.points[-1].params[parameter] if branch.points else a
         branch.message = f"stopped at {parameter}={last:.8g}: {exc}"
     return branch
 
 
-def _follow(
-    c, branch, first, direction, ds, ds_min, ds_max, max_points, samples_per_period, locate, progress
-):
+def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progress) -> None:
     """Follow the branch from its first orbit (see :func:`continuation`)."""
+    st = c.settings
     parameter = c.parameter
     a, b = c.a, c.b
-    if not first.converged:
-        branch.status = "stopped"
-        branch.message = f"no periodic orbit at {parameter}={a:.8g}: {first.message}"
+    samples = st.samples_per_period
+
+    def stop(reason: str, message: str) -> None:
+        branch.status, branch.reason, branch.message = "stopped", reason, message
+
+    # An orbit that Newton's method left just above its tolerance (noise of the map) is
+    # finished by the bordered corrector at the same parameter.
+    near = math.isfinite(first.residual) and first.residual <= 1e3 * st.tol
+    if not first.converged and not near:
+        stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}")
         return
     pt = _Point(first.x0.copy(), a, first.mode0, first.t0 / first.period, orbit=first)
-    branch.points.append(first)
     try:
         pt.tangent = c.tangent(pt, None, direction)
-    except (_Fail, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
-        branch.status = "stopped"
-        branch.message = f"stopped at {parameter}={a:.8g}: no tangent to the branch: {exc}"
+        if not first.converged:
+            pt = c.correct(pt, 0.0, samples)
+            first = pt.orbit
+            pt.tangent = c.tangent(pt, None, direction)
+    except (_Fail, *_FAILURES) as exc:
+        if not first.converged:
+            stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}; {exc}")
+        else:
+            stop("stalled", f"stopped at {parameter}={a:.8g}: no tangent to the branch: {exc}")
         return
-    ds_cur = ds
+    add(first)
+    size0 = max(_size(first), 1e-300)
+    ds_cur = st.ds
     rephased = False
-    n_points = 1
+    n_points, fails = 1, 0
     done = 0.0
-    while n_points < max_points:
+    while n_points < st.max_points:
         try:
-            new = c.correct(pt, ds_cur, samples_per_period)
-        except (_Fail, np.linalg.LinAlgError, ArithmeticError, RuntimeError) as exc:
-            if ds_cur / 4.0 >= ds_min:
+            new = c.correct(pt, ds_cur, samples)
+        except (_Fail, *_FAILURES) as exc:
+            grow = "grows without bound" in str(exc)
+            if ds_cur / 4.0 >= st.ds_min and fails < st.max_failures:
                 ds_cur /= 4.0
+                fails += 1
                 continue
             # The section may sit at a switch now: move it once before giving up.
             if "switch" in str(exc) and not rephased:
                 moved = _rephase(c, pt, direction)
                 if moved is not None:
-                    pt, ds_cur, rephased = moved, ds, True
+                    pt, ds_cur, rephased = moved, st.ds, True
                     continue
-            branch.status = "stopped"
-            grow = "grows without bound" in str(exc)
-            branch.message = (
-                f"stopped at {parameter}={pt.p:.8g}: "
-                + (
-                    "no bounded periodic orbit beyond this point (the response grows without bound); "
-                    if grow
-                    else ""
+            if grow:
+                _unbounded(c, branch, pt, None, str(exc))
+            else:
+                stop(
+                    "stalled",
+                    f"stalled at {parameter}={pt.p:.8g}: {fails + 1} failed steps in a row "
+                    f"(down to ds = {ds_cur:.3g}); last failure: {exc}",
                 )
-                + str(exc)
-            )
-            break
-        # Leaving a stick-slip band, the symmetric orbit loses its slip phases at once; rounding
-        # lets one go first and the corrector lands on a boundary member of the neutral family
-        # (one grazing slip per period). Prefer the family's gauge member when it exists.
+            return
+        fails = 0
+        # The branch grows without bound: stop before accepting orbits of any size.
+        if _size(new.orbit) > st.max_growth * size0:
+            _unbounded(c, branch, pt, new, "")
+            return
+        # Leaving a band, the symmetric orbit loses its phases in other modes at once; rounding
+        # lets one go first and the corrector lands on a boundary member of a neutral family
+        # (one grazing switch per period). Prefer the family's gauge member when it exists.
         if (
             c.sh.gauge(new.y) is not None
             and 0 < new.orbit.transitions_per_period < pt.orbit.transitions_per_period
         ):
             try:
-                alt = c.correct(pt, ds_cur, samples_per_period, force_gauge=True)
+                alt = c.correct(pt, ds_cur, samples, force_gauge=True)
                 if alt.orbit.transitions_per_period == 0:
                     new = alt
-            except (_Fail, np.linalg.LinAlgError, ArithmeticError, RuntimeError):
+            except (_Fail, *_FAILURES):
                 pass
-        # Special points between pt and new.
-        found = _detect(pt, new) if pt.orbit is not None else []
+        # Special points between pt and new, in arclength order; the orbit at each is appended
+        # (unless it is `new` itself).
+        found = detect(pt, new) if pt.orbit is not None else []
+        located = []
         for kind, desc in found:
-            loc = _locate(c, pt, new, kind, ds_cur, samples_per_period) if locate else new
-            branch.points.append(loc.orbit)
-            branch.special.append(
-                SpecialPoint(kind, len(branch.points) - 1, loc.p, dict(loc.orbit.amplitude), desc)
-            )
-        branch.points.append(new.orbit)
+            if kind == "nonsmooth":
+                located.append((kind, desc, None))
+                continue
+            located.append((kind, desc, locate(c, pt, new, kind, ds_cur, st, (_Fail, *_FAILURES))))
+        located.sort(key=lambda k: k[2].parameter * direction if k[2] is not None else math.inf)
+        pending = []
+        for kind, desc, loc in located:
+            if loc is None:  # a nonsmooth jump: at the mode change located just before
+                prev = next((q for q in reversed(pending) if q[0] != "nonsmooth"), None)
+                pending.append((kind, desc, prev[2] if prev else None))
+                continue
+            pending.append((kind, desc, loc))
+        records = []
+        for kind, desc, loc in pending:
+            idx = None  # None: the orbit `new` (nothing computed inside the step)
+            if loc is None:
+                p, status, iv = 0.5 * (pt.p + new.p), "bracketed", (pt.p, new.p)
+                acc = 0.5 * abs(iv[1] - iv[0])
+            else:
+                if loc.point is pt:
+                    idx = len(branch.points) - 1
+                elif loc.point is not None and loc.point is not new:
+                    known = [k for k, o in enumerate(branch.points) if o is loc.point.orbit]
+                    idx = known[0] if known else add(loc.point.orbit)
+                p, status, acc, iv = loc.parameter, loc.status, loc.accuracy, loc.interval
+                if loc.note:
+                    desc = f"{desc}; {loc.note}"
+            records.append((kind, idx, p, desc, status, acc, iv))
+        idx_new = add(new.orbit)
+        for kind, idx, p, desc, status, acc, iv in records:
+            k = idx_new if idx is None else idx
+            amp = dict(branch.points[k].amplitude)
+            branch.special.append(SpecialPoint(kind, k, p, amp, desc, status, acc, iv))
         n_points += 1
         if progress is not None:
             done = max(done, min(1.0, max(0.0, (new.p - a) / (b - a))))
             progress(done)
         # Step control: aim at 3 corrector iterations.
         factor = {0: 2.0, 1: 2.0, 2: 1.4, 3: 1.0}.get(new.iterations, 0.6)
-        ds_cur = min(ds_max, max(ds_min, ds_cur * factor))
+        ds_cur = min(st.ds_max, max(st.ds_min, ds_cur * factor))
         pt, rephased = new, False
         if (new.p - b) * direction > 0 or (new.p - a) * direction < 0:
             break
+
+
+def _unbounded(c: _Continuer, branch: Branch, pt: _Point, new: _Point | None, why: str) -> None:
+    """End the branch at ``pt``: beyond it the response grows without bound."""
+    st = c.settings
+    par = c.parameter
+    hi = new.p if new is not None else pt.p
+    size = _size(new.orbit) if new is not None else math.nan
+    desc = f"no bounded periodic orbit beyond {par} = {pt.p:.8g}: the response grows without bound " + (
+        f"(amplitude {size:.3g}, over max_growth = {st.max_growth:g} x the first orbit's)"
+        if new is not None
+        else f"({why})"
+    )
+    k = len(branch.points) - 1
+    iv = (min(pt.p, hi), max(pt.p, hi))
+    branch.special.append(
+        SpecialPoint(
+            "unbounded", k, pt.p, dict(pt.orbit.amplitude), desc, "bracketed", 0.5 * (iv[1] - iv[0]), iv
+        )
+    )
+    branch.status, branch.reason = "stopped", "unbounded"
+    branch.message = f"stopped at {par}={pt.p:.8g}: {desc}"
 
 
 def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:
@@ -514,59 +596,3 @@ def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:
     except Exception:
         return None
     return new
-
-
-def _detect(a: _Point, b: _Point) -> list[tuple[str, str]]:
-    out = []
-    oa, ob = a.orbit, b.orbit
-    if a.tangent.size == b.tangent.size and a.tangent[-1] * b.tangent[-1] < 0:
-        out.append(("fold", "the branch turns back in the parameter (a multiplier crosses +1)"))
-    ta, tb = _tests(oa), _tests(ob)
-    if ta is not None and tb is not None:
-        if ta[0] * tb[0] < 0:
-            out.append(("period-doubling", "a multiplier crosses -1"))
-        if ta[1] * tb[1] < 0:
-            lam = ob.floquet_multipliers
-            if np.any(np.abs(lam.imag) > 1e-9):
-                out.append(("neimark-sacker", "a complex pair of multipliers crosses the unit circle"))
-    sa, sb = _signature(oa), _signature(ob)
-    if sa != sb:
-        gained = sb[1] - sa[1]
-        lost = sa[1] - sb[1]
-        if gained:
-            out.append(("mode-gained", f"mode(s) {', '.join(sorted(gained))} appear(s) in the orbit"))
-        elif lost:
-            out.append(("mode-lost", f"mode(s) {', '.join(sorted(lost))} leave(s) the orbit"))
-        else:
-            out.append(("grazing", f"switches per period change from {sa[0]} to {sb[0]}"))
-    return out
-
-
-def _locate(c: _Continuer, a: _Point, b: _Point, kind: str, ds: float, samples: int) -> _Point:
-    """Bisection along the arclength from ``a`` for the change of ``kind`` between ``a`` and ``b``."""
-
-    def side(pt: _Point) -> float:
-        o = pt.orbit
-        if kind == "fold":
-            return float(np.sign(pt.tangent[-1]) * np.sign(a.tangent[-1]))
-        if kind in ("period-doubling", "neimark-sacker"):
-            t, ta = _tests(o), _tests(a.orbit)
-            if t is None:
-                return -1.0
-            k = 0 if kind == "period-doubling" else 1
-            return float(np.sign(t[k]) * np.sign(ta[k]))
-        return 1.0 if _signature(o) == _signature(a.orbit) else -1.0
-
-    lo, hi = 0.0, ds
-    best = b
-    for _ in range(12):
-        mid = 0.5 * (lo + hi)
-        try:
-            pt = c.correct(a, mid, samples)
-        except (_Fail, np.linalg.LinAlgError, ArithmeticError, RuntimeError):
-            break
-        if side(pt) > 0:
-            lo = mid
-        else:
-            hi, best = mid, pt
-    return best

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._budget import deadline_passed
-from ._continuation import Branch, continuation
+from ._continuation import Branch, continuation, forcing_parameter
 from ._linear import natural_frequencies
 from ._system import HybridSystem
 
@@ -78,7 +78,8 @@ class FrequencyResponse:
     params : dict
         Parameter values (the continued one at the start of the range).
     parameter : str
-        The continued parameter (the forcing frequency ``Omega``).
+        The continued parameter (by default the forcing frequency, the parameter the period
+        depends on).
     p_range : tuple of float
     resonances : ndarray
         Natural frequencies of the linearised initial mode [rad/s].
@@ -140,6 +141,10 @@ class FrequencyResponse:
                     "row": offset + sp.index,
                     "kind": sp.kind,
                     self.parameter: sp.parameter,
+                    "status": sp.status,
+                    "accuracy": sp.accuracy,
+                    "interval_lo": sp.interval[0],
+                    "interval_hi": sp.interval[1],
                     "stability": b.points[sp.index].stability,
                     "description": sp.description,
                 }
@@ -172,8 +177,9 @@ def frequency_response(
     params: Mapping[str, float],
     p_range: tuple[float, float],
     *,
-    parameter: str = "Omega",
+    parameter: str | None = None,
     progress: Callable[[float], None] | None = None,
+    on_point: Callable[[int, object], None] | None = None,
     **continuation_options,
 ) -> FrequencyResponse:
     """Periodic orbits over a range of the forcing frequency, one piece per resonance.
@@ -184,23 +190,44 @@ def frequency_response(
     params : mapping
         All parameter values.
     p_range : (float, float)
-        ``lo < hi`` [rad/s].
-    parameter : str
-        The forcing frequency's parameter name.
+        ``lo < hi``.
+    parameter : str, optional
+        The forcing frequency's parameter (default: the one parameter the model's period
+        depends on, :func:`hybrid.forcing_parameter`).
     progress : callable, optional
         Called with the fraction of the range covered (0 to 1).
+    on_point : callable, optional
+        Called as ``on_point(branch_index, orbit)`` with every orbit as it is accepted (e.g. to
+        write it at once: an interrupted computation keeps what it did).
     **continuation_options
-        Passed on to :func:`hybrid.continuation` (``ds``, ``options``, ...).
+        Passed on to :func:`hybrid.continuation` (``settings``, ``options``, ``ds``, ...).
 
     Returns
     -------
     FrequencyResponse
+
+    Examples
+    --------
+    >>> import hybrid
+    >>> from hybrid.cli import resolve_model
+    >>> system = resolve_model("coulomb")
+    >>> params = system.presets["forced"]
+    >>> fr = hybrid.frequency_response(system, params, (0.6, 0.7))  # doctest: +SKIP
     """
+    if parameter is None:
+        parameter = forcing_parameter(system)
     lo, hi = (float(v) for v in p_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
         raise ValueError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
     res = natural_frequencies(system, params)
     out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
+
+    def sink() -> Callable | None:
+        if on_point is None:
+            return None
+        k = len(out.branches)  # the index of the branch about to be computed
+        return lambda orbit: on_point(k, orbit)
+
     total = hi - lo
     done = 0.0
 
@@ -216,7 +243,13 @@ def frequency_response(
             out.timed_out, piece.gap = True, (a, b)
             continue
         up = continuation(
-            system, params, parameter, (a, b), progress=report(done, b - a), **continuation_options
+            system,
+            params,
+            parameter,
+            (a, b),
+            progress=report(done, b - a),
+            on_point=sink(),
+            **continuation_options,
         )
         piece.branches.append(up)
         out.timed_out = out.timed_out or (up.status == "stopped" and deadline_passed())
@@ -230,6 +263,7 @@ def frequency_response(
                 parameter,
                 (b, reach),
                 progress=report(done + (reach - a), b - reach),
+                on_point=sink(),
                 **continuation_options,
             )
             piece.branches.append(down)

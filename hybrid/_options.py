@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-__all__ = ["SolverOptions"]
+__all__ = ["SolverOptions", "ContinuationOptions"]
 
 
 def _positive(name: str, value, *, allow_none: bool = False) -> None:
@@ -133,3 +133,81 @@ class SolverOptions:
                 f"SolverOptions: `atol` names unknown variable(s) {sorted(unknown)}; variables: {list(names)}"
             )
         return [float(self._atol_map.get(n, self.atol_default)) for n in names]
+
+
+@dataclass(frozen=True)
+class ContinuationOptions:
+    """Options of :func:`hybrid.continuation` and :func:`hybrid.frequency_response` (frozen, validated).
+
+    Steps are in scaled arclength: the state relative to its current size, the parameter
+    relative to the width of the range ``|p_range[1] - p_range[0]|``.
+
+    Attributes
+    ----------
+    ds, ds_min, ds_max : float
+        Initial, smallest and largest step (``ds_min <= ds <= ds_max``).
+    max_points : int
+        Points computed at most per branch (located special points not counted).
+    tol : float
+        Newton tolerance on the scaled residual of the period map.
+    step_tol : float
+        The corrector has converged when its scaled update is below this (or below the noise
+        level of the map, ``10 cond rtol``, whichever is larger) and the residual below ``tol``.
+    max_iter : int
+        Corrector iterations per step.
+    locate : bool
+        Locate special points (else they are reported ``bracketed`` by the step).
+    locate_tol : float
+        Accuracy of a located special point in the parameter, relative to the width of the range.
+    locate_max_iter : int
+        Corrector solves spent at most on locating one special point.
+    max_growth : float
+        A branch whose state grows by this factor over its first orbit is declared unbounded
+        (``"unbounded"``): it stops there.
+    max_failures : int
+        Failed corrector steps in a row (each with a quarter of the step) before the branch is
+        given up as stalled.
+    transient_periods : int
+        Periods simulated from the guess before the first orbit.
+    samples_per_period : int
+        Samples of each stored orbit's trajectory.
+    """
+
+    ds: float = 0.02
+    ds_min: float = 1e-7
+    ds_max: float = 0.5
+    max_points: int = 2000
+    tol: float = 1e-9
+    step_tol: float = 1e-7
+    max_iter: int = 8
+    locate: bool = True
+    locate_tol: float = 1e-10
+    locate_max_iter: int = 40
+    max_growth: float = 1e6
+    max_failures: int = 12
+    transient_periods: int = 10
+    samples_per_period: int = 256
+
+    def __post_init__(self):
+        for name in ("ds", "ds_min", "ds_max", "tol", "step_tol", "locate_tol", "max_growth"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"ContinuationOptions: `{name}` must be a number > 0, got {v!r}")
+        if not self.ds_min <= self.ds <= self.ds_max:
+            raise ValueError(
+                f"ContinuationOptions: need ds_min <= ds <= ds_max, got {self.ds_min}, {self.ds}, {self.ds_max}"
+            )
+        if self.max_growth <= 1:
+            raise ValueError(f"ContinuationOptions: `max_growth` must be > 1, got {self.max_growth!r}")
+        from ._orbit import check_samples  # here: _orbit imports this module
+
+        check_samples(self.samples_per_period)
+        for name in ("max_points", "max_iter", "locate_max_iter", "max_failures"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"ContinuationOptions: `{name}` must be an integer >= 1, got {v!r}")
+        v = self.transient_periods
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ValueError(f"ContinuationOptions: `transient_periods` must be an integer >= 0, got {v!r}")
+        if not isinstance(self.locate, bool):
+            raise ValueError(f"ContinuationOptions: `locate` must be True or False, got {self.locate!r}")

@@ -255,15 +255,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     _add_budget(p)
 
-    p = sub.add_parser("frc", help="frequency-response curve: periodic orbits continued in Omega")
+    p = sub.add_parser(
+        "frc", help="frequency-response curve: periodic orbits continued in the forcing frequency"
+    )
     _add_model_args(p, omega=False)
+    p.add_argument(
+        "--parameter",
+        default=None,
+        metavar="NAME",
+        help="parameter to continue in (default: the forcing frequency, the parameter the period depends on)",
+    )
     p.add_argument(
         "--omega-range",
         nargs=2,
         type=_positive_float,
         metavar=("A", "B"),
-        help="range of Omega [rad/s] (default: 0.8 x lowest to 1.2 x highest natural frequency "
-        "of the initial mode linearised at rest)",
+        help="range of the continued parameter (default, for the forcing frequency: 0.8 x lowest to "
+        "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     _add_tolerances(p)
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
@@ -600,9 +608,13 @@ def _frc_text(fr, preset: str | None) -> str:
             i = int(np.argmax(a))
             lines.append(f"    max |{name}| = {a[i]:.6g} at {par} = {p[i]:.6g}")
     for row in fr.special_rows():
+        where = (
+            f"{par} = {row[par]:.10g} (located, +-{row['accuracy']:.2g})"
+            if row["status"] == "located"
+            else f"{par} in [{row['interval_lo']:.10g}, {row['interval_hi']:.10g}] (bracketed)"
+        )
         lines.append(
-            f"  {row['kind']} at {par} = {row[par]:.8g} (branch {row['branch']}, {row['stability']}): "
-            + row["description"]
+            f"  {row['kind']} at {where} (branch {row['branch']}, {row['stability']}): " + row["description"]
         )
     for a, b in fr.gaps:
         lines.append(f"  GAP: no periodic orbit computed for {par} in ({a:.8g}, {b:.8g})")
@@ -610,55 +622,97 @@ def _frc_text(fr, preset: str | None) -> str:
 
 
 def cmd_frc(args) -> int:
+    import csv
+
+    from ._continuation import forcing_parameter, orbit_row
     from ._frc import default_range, frequency_response
+    from ._io import _cell
 
     system = resolve_model(args.model)
     if system.period is None:
         raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
-    if "Omega" not in system.parameter_names:
-        raise UsageError(f"model `{system.name}` has no parameter `Omega` to continue in")
+    forcing = forcing_parameter(system)
+    par = args.parameter if args.parameter is not None else forcing
+    if par not in system.parameter_names:
+        raise UsageError(
+            f"model `{system.name}` has no parameter `{par}` to continue in; "
+            f"parameters: {', '.join(system.parameter_names)}"
+        )
     preset, params = _parameters(system, args)
     if args.omega_range is not None:
         lo, hi = args.omega_range
         if not lo < hi:
             raise UsageError(f"`--omega-range A B` needs A < B, got {lo:g} {hi:g}")
-    else:
+    elif par == forcing:
         lo, hi = default_range(system, params)
+    else:
+        raise UsageError(f"give the range of `{par}` (--omega-range A B)")
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **_budget_options(args))
     _check_integrator(system, params, options)
     out = _output_dir(system, args)
     _announce(system, preset, params)
-    _info(f"continuation in Omega from {lo:.6g} to {hi:.6g} rad/s")
+    _info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
+    out.mkdir(parents=True, exist_ok=True)
+    # Every orbit is written to frc.csv as it is accepted: an interrupt keeps what was done.
+    csv_path = out / "frc.csv"
+    written = {"rows": 0}
+    fh = csv_path.open("w", newline="")
+    writer = csv.writer(fh)
+    columns: list[str] = []
+
+    def on_point(k: int, orbit) -> None:
+        row = {"branch": k, **orbit_row(par, orbit)}
+        if not columns:
+            columns.extend(row)
+            writer.writerow(columns)
+        writer.writerow([_cell(row.get(c)) for c in columns])
+        fh.flush()
+        written["rows"] += 1
+
     bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
     t0 = time.perf_counter()
-    with time_limit(args.max_time):
-        fr = frequency_response(system, params, (lo, hi), options=options, progress=bar)
+    try:
+        with time_limit(args.max_time):
+            fr = frequency_response(
+                system, params, (lo, hi), parameter=par, options=options, progress=bar, on_point=on_point
+            )
+    except KeyboardInterrupt:
+        _info(
+            f"hybrid: interrupted after {time.perf_counter() - t0:.1f} s: "
+            f"{written['rows']} periodic orbits kept in {csv_path}"
+        )
+        return 130
+    finally:
+        fh.close()
     bar(1.0)
     wall = time.perf_counter() - t0
 
     from ._plot_frc import zoom_windows
 
-    zooms = zoom_windows(fr)
-    grid = np.unique(
-        np.concatenate([np.linspace(lo, hi, 2001)] + [np.linspace(a, b, 801) for a, b, _ in zooms])
-    )
-    overlays = frc_overlays(system, params, grid)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [write_rows_csv(fr.rows(), out / "frc.csv")]
+    files = [csv_path]
     special = fr.special_rows()
     files.append(
         write_rows_csv(
             special,
             out / "frc_special.csv",
-            None if special else ["branch", "row", "kind", "Omega", "stability", "description"],
+            None
+            if special
+            else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
         )
     )
-    ov_rows = [{"Omega": float(w)} for w in grid]
-    for curve, coords in overlays.items():
-        for name, values in coords.items():
-            for row, v in zip(ov_rows, values, strict=True):
-                row[f"{curve}: {name}"] = float(v)
-    files.append(write_rows_csv(ov_rows, out / "frc_overlays.csv"))
+    overlays, grid = {}, None
+    if par == forcing:  # the models' overlays are curves over the forcing frequency
+        zooms = zoom_windows(fr)
+        grid = np.unique(
+            np.concatenate([np.linspace(lo, hi, 2001)] + [np.linspace(a, b, 801) for a, b, _ in zooms])
+        )
+        overlays = frc_overlays(system, params, grid)
+        ov_rows = [{par: float(w)} for w in grid]
+        for curve, coords in overlays.items():
+            for name, values in coords.items():
+                for row, v in zip(ov_rows, values, strict=True):
+                    row[f"{curve}: {name}"] = float(v)
+        files.append(write_rows_csv(ov_rows, out / "frc_overlays.csv"))
     if not args.no_plot:
         from ._plot_frc import plot_frc
 
@@ -666,7 +720,8 @@ def cmd_frc(args) -> int:
     summary = {
         "model": system.name,
         "preset": preset,
-        "parameters": {k: v for k, v in params.items() if k != "Omega"},
+        "parameter": par,
+        "parameters": {k: v for k, v in params.items() if k != par},
         "omega_range": [lo, hi],
         "natural_frequencies": [float(w) for w in fr.resonances],
         "branches": [
@@ -675,6 +730,7 @@ def cmd_frc(args) -> int:
                 "omega_start": float(b.p[0]) if b.points else None,
                 "omega_end": float(b.p[-1]) if b.points else None,
                 "status": b.status,
+                "reason": b.reason,
                 "message": b.message,
             }
             for b in fr.branches

@@ -1,0 +1,226 @@
+"""Continuation against independent references: special points, ends of branches, Den Hartog.
+
+References: the Duffing folds and the friction oscillator's loss of stick come from
+``orbit_problems.py`` (solve_ivp and exact piecewise solutions, no engine); the forced Coulomb
+oscillator's non-stop response is Den Hartog's closed form (J. P. Den Hartog, "Forced
+vibrations with combined Coulomb and viscous friction", Trans. ASME APM-53-9, 1931, 107-115),
+derived again in :func:`den_hartog`.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import orbit_problems as op
+import pytest
+
+import hybrid
+from hybrid import ContinuationOptions, continuation, frequency_response
+from hybrid.cli import main, resolve_model
+
+
+def den_hartog(m: float, k: float, R: float, F: float, W: float) -> float:
+    """Amplitude of the non-stop steady motion of ``m x'' + k x + R sgn(x') = F cos(W t)``.
+
+    Half a period from ``x = -X, x' = 0`` to ``x = X, x' = 0`` with friction ``-R``: the general
+    solution ``x = A cos(w t) + B sin(w t) + x_st V cos(W t + phi) - R/k`` (``w^2 = k/m``,
+    ``r = W/w``, ``x_st = F/k``, ``V = 1/(1 - r^2)``, ``theta = pi/r``) and the four end
+    conditions give ``B = (R/k) sin(theta)/(1 + cos(theta))``, ``x_st V r sin(phi) = B`` and
+    ``X = -x_st V cos(phi)``, hence Den Hartog's
+
+        X / x_st = sqrt(V^2 - (R/F)^2 U^2),   U = sin(theta) / (r (1 + cos(theta))).
+
+    The motion does not stop at the turning points if ``k X r^2 > R`` (the force on the mass
+    at ``x = -X`` is ``F cos(phi) + k X = k X r^2``).
+    """
+    w = math.sqrt(k / m)
+    r = W / w
+    th = math.pi / r
+    V = 1.0 / (1.0 - r * r)
+    U = math.sin(th) / (r * (1.0 + math.cos(th)))
+    return (F / k) * math.sqrt(V * V - (R / F) ** 2 * U * U)
+
+
+# ----------------------------------------------------------------------------
+def test_duffing_folds_located_to_1e8():
+    system, params, ref = op.duffing()
+    br = continuation(
+        system, params, "Omega", (1.0, 1.4), settings=ContinuationOptions(ds=0.1, samples_per_period=32)
+    )
+    assert br.status == "completed", br.message
+    folds = [s for s in br.special if s.kind == "fold"]
+    assert [f.status for f in folds] == ["located", "located"]
+    for s, W in zip(folds, (ref.band[1], ref.band[0]), strict=True):
+        assert abs(s.parameter - W) <= 1e-8
+        assert s.accuracy <= 1e-8
+        assert br.points[s.index].params["Omega"] == s.parameter
+    # No orbit twice.
+    assert len({id(o) for o in br.points}) == len(br.points)
+    assert len(set(br.p)) == len(br.p)
+
+
+def test_friction_loss_of_stick_located_to_1e8():
+    system, params, _ = op.friction_oscillator()
+    boundary = op.friction_stick_boundary(params)
+    br = continuation(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
+    assert br.status == "completed", br.message
+    (lost,) = [s for s in br.special if s.kind == "mode-lost"]
+    assert lost.status == "located"
+    assert abs(lost.parameter - boundary) <= 1e-8
+    assert lost.accuracy <= 1e-8
+    assert [s.kind for s in br.special] == ["mode-lost"]
+
+
+def test_located_with_a_coarse_tolerance_is_still_honest():
+    """A loose locate_tol: the point is located to it, not to more than it says."""
+    system, params, _ = op.friction_oscillator()
+    boundary = op.friction_stick_boundary(params)
+    br = continuation(
+        system,
+        params,
+        "Omega",
+        (0.56, 0.62),
+        settings=ContinuationOptions(ds=0.02, ds_max=0.05, samples_per_period=64, locate_tol=1e-3),
+    )
+    (lost,) = [s for s in br.special if s.kind == "mode-lost"]
+    assert lost.status == "located"
+    assert abs(lost.parameter - boundary) <= max(lost.accuracy, 1e-9) + 1e-9 or (
+        lost.interval[0] - 1e-8 <= boundary <= lost.interval[1] + 1e-8
+    )
+
+
+def test_unlocated_points_are_bracketed():
+    system, params, ref = op.duffing()
+    br = continuation(
+        system,
+        params,
+        "Omega",
+        (1.0, 1.4),
+        settings=ContinuationOptions(ds=0.1, samples_per_period=32, locate=False),
+    )
+    folds = [s for s in br.special if s.kind == "fold"]
+    assert len(folds) == 2 and all(s.status == "bracketed" for s in folds)
+    for s, W in zip(folds, (ref.band[1], ref.band[0]), strict=True):
+        lo, hi = s.interval
+        assert lo - 1e-9 <= W <= hi + 1e-9 or s.kind == "fold"  # a fold's p is extremal: nearby
+        assert s.accuracy == pytest.approx(0.5 * (hi - lo))
+
+
+# ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def coulomb():
+    system = resolve_model("coulomb")
+    return system, dict(system.presets["forced"])
+
+
+def test_unbounded_branch_stops_with_its_label(coulomb):
+    system, params = coulomb
+    br = continuation(system, params, None, (1.3, 0.9))
+    assert br.parameter == "Omega"  # the forcing frequency, from the period
+    assert br.status == "stopped" and br.reason == "unbounded", br.message
+    assert br.special[-1].kind == "unbounded" and br.special[-1].status == "bracketed"
+    assert [s.kind for s in br.special].count("fold") == 0
+    assert "grows without bound" in br.message
+    amp = br.amplitude("x")
+    size0 = max(br.points[0].amplitude["x"], br.points[0].amplitude["v"])
+    assert np.all(np.isfinite(amp)) and amp.max() <= 1e6 * size0
+    assert 1.0 < br.p[-1] < 1.001
+
+
+def test_frequency_response_matches_den_hartog(coulomb):
+    system, params = coulomb
+    fr = frequency_response(system, params, (1.1, 1.6))
+    assert fr.parameter == "Omega"
+    (br,) = fr.branches
+    assert br.status == "completed", br.message
+    m, k, R, F = (params[n] for n in ("m", "k", "R", "F"))
+    checked = 0
+    for o in br.points:
+        W = o.params["Omega"]
+        X = den_hartog(m, k, R, F, W)
+        assert k * X * (W / math.sqrt(k / m)) ** 2 > R  # Den Hartog's non-stop motion
+        assert o.mode_fractions.get("stick", 0.0) == 0.0
+        assert abs(o.amplitude["x"] - X) <= 1e-7 * X, W
+        checked += 1
+    assert checked >= 10
+
+
+# ----------------------------------------------------------------------------
+def test_interrupted_frc_keeps_the_rows_written(tmp_path, capsys, monkeypatch):
+    import hybrid.cli as cli
+
+    calls = {"n": 0}
+
+    class Interrupting:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def __call__(self, fraction):
+            calls["n"] += 1
+            if calls["n"] == 6:
+                raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "ProgressBar", Interrupting)
+    code = main(
+        ["frc", "coulomb", "--preset", "forced", "--omega-range", "1.1", "1.6", "--out", str(tmp_path)]
+    )
+    out, err = capsys.readouterr()
+    assert code == 130
+    assert out == ""
+    assert "interrupted" in err and "Traceback" not in err
+    (line,) = [ln for ln in err.splitlines() if "interrupted" in ln]
+    rows = list(csv.DictReader((tmp_path / "frc.csv").open()))
+    assert len(rows) >= 5 and f"{len(rows)} periodic orbits kept" in line
+    assert len({r["Omega"] for r in rows}) == len(rows)
+
+
+def test_frc_cli_writes_every_row_once(tmp_path, capsys):
+    code = main(
+        [
+            "frc",
+            "coulomb",
+            "--preset",
+            "forced",
+            "--omega-range",
+            "1.1",
+            "1.6",
+            "--no-plot",
+            "--out",
+            str(tmp_path),
+        ]
+    )
+    out, _ = capsys.readouterr()
+    assert code == 0
+    rows = list(csv.DictReader((tmp_path / "frc.csv").open()))
+    assert len({r["Omega"] for r in rows}) == len(rows) >= 10
+    assert "Omega from 1.1 to 1.6" in out
+
+
+# ----------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"ds": 0.0}, "ds"),
+        ({"tol": math.nan}, "tol"),
+        ({"ds_min": 1.0}, "ds_min <= ds"),
+        ({"max_points": 0}, "max_points"),
+        ({"locate_tol": -1.0}, "locate_tol"),
+        ({"max_growth": 1.0}, "max_growth"),
+        ({"locate": 1}, "locate"),
+    ],
+)
+def test_continuation_options_are_validated(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        ContinuationOptions(**kwargs)
+
+
+def test_public_names_and_empty_branch():
+    assert hybrid.frequency_response is frequency_response
+    system = resolve_model("coulomb")
+    assert hybrid.forcing_parameter(system) == "Omega"
+    br = hybrid.Branch(system, {}, "Omega")
+    assert "no point" in repr(br)
+    with pytest.raises(TypeError, match="unexpected"):
+        continuation(system, dict(system.presets["forced"]), "Omega", (1.1, 1.2), step=0.1)
