@@ -244,8 +244,18 @@ class Shooter:
         self.nfev = 0
 
     def set_params(self, params: Mapping[str, float]) -> None:
+        """New parameter values; a change of the free parameter alone does not recompile the system."""
         self.params = self.system.parameter_values(params)
-        self.cs = CompiledSystem(self.system, self.params)
+        cs = self.__dict__.get("cs")
+        runtime = (self.free,) if self.free is not None else ()
+        if (
+            runtime
+            and cs is not None
+            and all(cs.params[k] == v for k, v in self.params.items() if k != self.free)
+        ):
+            cs.set_runtime({self.free: self.params[self.free]})  # read by the closures at call time
+        else:
+            self.cs = CompiledSystem(self.system, self.params, runtime=runtime)
         self.period = self.cs.period
         if self.period is None:
             raise ValueError(

@@ -510,8 +510,8 @@ class _Run:
 
     def project(self, cm: CompiledMode, t: float, y: np.ndarray) -> np.ndarray:
         """``y`` with the slave variables of ``cm`` re-solved (IDA's interpolant satisfies the
-        algebraic equations only to the integration tolerance)."""
-        if cm.alg_idx.size == 0:
+        algebraic equations only to the integration tolerance; the exact flow satisfies them)."""
+        if cm.alg_idx.size == 0 or self.opt.integrator == "exact":
             return np.array(y, dtype=float)
         try:
             return cm.solve_algebraic(t, y)
