@@ -137,7 +137,10 @@ class AffineMode:
 
     def derivatives(self, z: np.ndarray) -> np.ndarray:
         """Consistent ``y'`` at ``z`` (slave rows ``P_a M z``, quadrature rows ``z^T Q_j z``)."""
-        yp = self.P @ (self.M @ z)
+        PM = self.__dict__.get("_PM")
+        if PM is None:
+            PM = self.__dict__["_PM"] = self.P @ self.M
+        yp = PM @ z
         if self.q.size:
             yp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, z)
         return yp
@@ -591,6 +594,7 @@ class Flow:
                 # quadratures in the eigenbasis: int z^T Q z = c^T (V^T Q V o Phi(h)) c, c = V^-1 z
                 self.QV = np.array([V.T @ Qj @ V for Qj in Q]).reshape(len(Q), self.nz, self.nz)
                 self.mu = lam[:, None] + lam[None, :]
+                self._mu_safe = np.where(self.mu == 0.0, 1.0, self.mu)
                 self.eigen = True
         except np.linalg.LinAlgError:  # pragma: no cover - eig of a finite matrix
             pass
@@ -628,21 +632,30 @@ class Flow:
             return ((self.V * np.exp(self.lam * h)) @ self.Vinv).real
         return matrix_exp(self.M * h)
 
-    def advance(self, z: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(z(h), q(h) - q(0))`` from ``z``."""
+    def prepare(self, z: np.ndarray):
+        """What :meth:`advance` from ``z`` reuses for any ``h`` (eigen path; None otherwise)."""
+        if not self.eigen:
+            return None
+        c = self.Vinv @ z
+        return c, (self.QV * np.outer(c, c) if self.Q.shape[0] else None)
+
+    def advance(self, z: np.ndarray, h: float, prep=None) -> tuple[np.ndarray, np.ndarray]:
+        """``(z(h), q(h) - q(0))`` from ``z`` (``prep``: :meth:`prepare` of ``z``, if kept)."""
         nq = self.Q.shape[0]
         if self.eigen:
-            c = self.Vinv @ z
-            z1 = (self.V @ (np.exp(self.lam * h) * c)).real
-            if not nq:
+            c, cc = prep if prep is not None else self.prepare(z)
+            e = np.exp(self.lam * h)
+            z1 = (self.V @ (e * c)).real
+            if cc is None:
                 return z1, np.zeros(0)
+            # int_0^h exp(mu s) ds with mu_jk = lam_j + lam_k (exp(mu h) = e_j e_k); a series where mu h is small
             mh = self.mu * h
-            small = np.abs(mh) < 1e-3
-            phi = np.where(small, h * (1 + mh / 2 + mh * mh / 6 + mh**3 / 24), 0j)
-            big = ~small
-            phi[big] = (np.exp(mh[big]) - 1.0) / self.mu[big]
-            cc = np.outer(c, c) * phi
-            return z1, np.real(np.einsum("qjk,jk->q", self.QV, cc))
+            phi = np.where(
+                np.abs(mh) < 1e-3,
+                h * (1.0 + mh * (0.5 + mh * (1.0 / 6.0 + mh / 24.0))),
+                (np.outer(e, e) - 1.0) / self._mu_safe,
+            )
+            return z1, np.einsum("qjk,jk->q", cc, phi).real
         if not nq:
             return matrix_exp(self.M * h) @ z, np.zeros(0)
         nz = self.nz
@@ -730,7 +743,7 @@ class ExactModeSolver:
         self._t_call = 0.0
         self._z_call = self.z
         self._quad_call = self.quad
-        # A full step taken past the last output (no crossing in it): (t0, z0, q0, t1, z1, q1).
+        # A full step taken past the last output (no crossing in it): (t0, z0, q0, t1, z1, q1, [prep]).
         self._pending: tuple | None = None
 
     # ------------------------------------------------------------------
@@ -853,7 +866,7 @@ class ExactModeSolver:
         while True:
             pend = self._pending
             if pend is not None and not one_step:
-                t_s, z_s, q_s, t_e, z_e, q_e = pend
+                t_s, z_s, q_s, t_e, z_e, q_e, prep = pend
                 if t_e <= t_end:  # the pending step ends before the output: take it
                     t, z, quad = t_e, z_e, q_e
                     self._pending = None
@@ -862,7 +875,10 @@ class ExactModeSolver:
                         break
                     continue
                 if t_end > t:  # the output falls inside the pending step: the exact flow from its start
-                    z, quad = self._advance(z_s, q_s, t_end - t_s)
+                    if not prep:
+                        prep.append(self.flow.prepare(z_s))
+                    z, dq = self.flow.advance(z_s, t_end - t_s, prep[0])
+                    quad = q_s + dq
                     t = t_end
                     self._fix_forcing(t, z)
                     self.t, self.z, self.quad = t, z, quad
@@ -888,7 +904,7 @@ class ExactModeSolver:
                 t, z, quad = t1, z1, q1
                 self.t, self.z, self.quad = t, z, quad
                 break
-            self._pending = (t, z, quad, t1, z1, q1)
+            self._pending = (t, z, quad, t1, z1, q1, [])
         status = TSTOP if t >= tstop else SUCCESS
         return self._result(status, t, z, quad)
 
