@@ -135,6 +135,16 @@ class AffineMode:
         y[self.q] = quad
         return y
 
+    def guard_series(self, k: int, t: float, y: np.ndarray, order: int) -> np.ndarray:
+        """Taylor coefficients ``W_k M^j z / j!``, ``j <= order``, of guard ``k`` along the flow from ``(t, y)``."""
+        z = self.augment(t, y)
+        out = np.empty(order + 1)
+        row = self.W[k]
+        for j in range(order + 1):
+            out[j] = row @ z
+            row = (row @ self.M) / (j + 1)
+        return out
+
     def derivatives(self, z: np.ndarray) -> np.ndarray:
         """Consistent ``y'`` at ``z`` (slave rows ``P_a M z``, quadrature rows ``z^T Q_j z``)."""
         PM = self.__dict__.get("_PM")

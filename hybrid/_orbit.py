@@ -226,7 +226,7 @@ class Shooter:
         self.set_params(params)
         if options.integrator == "exact":
             self.cs.affine()  # refused before any run if not affine (NotAffineError)
-        self.ext = CompiledSystem(system, self.params, (free,) if free else ())
+        self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs  # same system without
         T = self.period
         self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
         nb = len(self.names)

@@ -545,9 +545,12 @@ class _Run:
                 d = g.direction
                 eta = self.noise(cm, g.index, t, y)
                 if abs(h) <= eta:
-                    if flow_series is None:
-                        flow_series = cm.taylor(t, y, self.opt.taylor_order)
-                    series = cm.guard_series(g.index, t, y, self.opt.taylor_order, flow_series)
+                    if self.opt.integrator == "exact":  # the exact flow's series: W M^j z / j!
+                        series = self.cs.affine()[mode].guard_series(g.index, t, y, self.opt.taylor_order)
+                    else:
+                        if flow_series is None:
+                            flow_series = cm.taylor(t, y, self.opt.taylor_order)
+                        series = cm.guard_series(g.index, t, y, self.opt.taylor_order, flow_series)
                     s = lead_sign(series, eta)
                     if d != 0 and s == d:
                         fire = g
