@@ -178,10 +178,6 @@ class Sensitivity:
         Step bound [s].
     """
 
-    #: Relative step of the central differences (with Richardson's extrapolation) of a free
-    #: parameter's column with the exact integrator (see :class:`hybrid._exact.ExactSensitivity`).
-    EXACT_DELTA = 1e-3
-
     def __init__(self, cs: CompiledSystem, options: SolverOptions, max_step: float):
         self.cs = cs
         nb = len(cs.system.variable_names)
@@ -204,9 +200,8 @@ class Sensitivity:
         """The exact flow's sensitivity in mode ``m`` at the free parameters' values ``extend``.
 
         The flows come from the system's parametric affine analysis (microseconds per parameter
-        set); the column of a free parameter is Richardson's extrapolation of the central
-        differences of the exact flows at ``p +- delta``, ``p +- delta/2``
-        (:class:`hybrid._exact.ExactSensitivity`).
+        set); the column of a free parameter is the central difference of the exact flows at
+        ``p +- delta`` (:class:`hybrid._exact.ExactSensitivity`).
         """
         from ._exact import ExactSensitivity, NotAffineError, affine_flows  # builds on this module's inputs
 
@@ -226,15 +221,12 @@ class Sensitivity:
                 if len(cs.free) > 1:
                     raise ValueError("the exact integrator differentiates by one free parameter at most")
                 p = cs.free[0]
-                delta = self.EXACT_DELTA * max(abs(params[p]), 1e-3)
-                pm = [
-                    (flows({**params, p: params[p] + d}), flows({**params, p: params[p] - d}), d)
-                    for d in (delta, 0.5 * delta)
-                ]
+                delta = 1e-6 * max(abs(params[p]), 1e-3)
+                plus = flows({**params, p: params[p] + delta})
+                minus = flows({**params, p: params[p] - delta})
+                pm = (plus, minus, delta)
             self._exact_modes = {
-                k: ExactSensitivity(
-                    base[k], self.s, None if pm is None else tuple((pl[k], mi[k], d) for pl, mi, d in pm)
-                )
+                k: ExactSensitivity(base[k], self.s, None if pm is None else (pm[0][k], pm[1][k], pm[2]))
                 for k in range(len(base))
             }
             self._exact_key = key
