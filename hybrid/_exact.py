@@ -24,6 +24,14 @@ augmented by ``S = sin(w t)``, ``C = cos(w t)`` and ``1``, the flow is linear::
   ``K(h) = int_0^h expm(M^T s) Q expm(M s) ds`` (Van Loan's block exponential);
 * the fundamental matrix of ``y_d`` over a step is the ``d``-block of ``expm(M h)``.
 
+The analysis is done once per system (:func:`system_analysis`) on its own
+expressions, the parameters kept as symbols: every coefficient (of the state,
+of ``S``, ``C`` and 1, the forcing rates and phases, guard rows, quadrature
+forms) is an expression in the parameters, and all are compiled into one
+function of the parameter vector, so the flows at a new parameter set
+(:func:`affine_flows`) cost a fraction of a millisecond instead of a
+compilation of the system.
+
 :class:`ExactModeSolver` offers the interface of :class:`hybrid._dae.ModeSolver`
 (``start``, ``step``, ``interpolate``, ``armed``, ``safe``), so the event loop of
 :func:`hybrid.simulate` (switch location, resets, chains, Zeno) is the same for
@@ -936,9 +944,14 @@ class ExactSensitivity:
     parameter last, if any): its differential rows follow the ``d``-block of
     ``expm(M h)``, its slave rows the elimination ``y_a = P_ad y_d + ...``. The
     column of a free parameter ``p`` (``dy(t1)/dp`` at a fixed start state) is
-    the central difference of the exact flows at ``p +- delta`` (``am_pm``):
-    the flows are exact, so its error is that of the difference alone
-    (about ``delta**2``, 1e-12 relative for ``delta = 1e-6 |p|``).
+    the central difference of the exact flows at ``p +- delta`` (``am_pm``),
+    ``delta = 1e-6 |p|``. Its truncation error is about ``delta**2``, but the
+    flows at each ``p`` round independently (their eigen-decompositions), so
+    its error is about ``eps / delta``: against IDA's variational column at
+    rtol 1e-12 it agrees to about 1e-8 relative (absorber at Omega = 0.8545:
+    6e-9). Richardson's extrapolation at ``delta = 1e-3 |p|`` agrees to 7e-11,
+    but the continuation of the isolator then strays in its pure-stick family
+    (a corrector fragility there, not an error of the column): kept as is.
 
     Parameters
     ----------
