@@ -14,6 +14,7 @@ so that the iteration matrix is ``dF/dy + cj dF/dy'``.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -319,6 +320,22 @@ class CompiledSystem:
         self.period = system.period_value(self.params)
         self.names = tuple(system.variable_names) + self.free
         self._affine = None
+
+    @classmethod
+    def borrow(cls, system: HybridSystem, params: Mapping[str, float], owner: object) -> CompiledSystem:
+        """A compiled system with every parameter read at call time, set to ``params``, lent to ``owner``.
+
+        Taken from a pool kept with ``system`` (compiled only if the pool is
+        empty) and returned to it when ``owner`` is garbage-collected, so
+        that repeated short-lived users (one periodic orbit after another at
+        new parameter values) do not recompile the system; two owners never
+        share one.
+        """
+        pool = system.__dict__.setdefault("_compiled_pool", [])
+        cs = pool.pop() if pool else cls(system, params, runtime=tuple(system.parameter_names))
+        cs.set_runtime(system.parameter_values(params))
+        weakref.finalize(owner, pool.append, cs)
+        return cs
 
     def set_runtime(self, values: Mapping[str, float]) -> None:
         """New values of ``runtime`` parameters (checked; the others must not change)."""

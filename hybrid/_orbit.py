@@ -254,6 +254,8 @@ class Shooter:
             and all(cs.params[k] == v for k, v in self.params.items() if k != self.free)
         ):
             cs.set_runtime({self.free: self.params[self.free]})  # read by the closures at call time
+        elif self.free is None and self.options.integrator == "exact":  # flows from the affine analysis
+            self.cs = CompiledSystem.borrow(self.system, self.params, self)
         else:
             self.cs = CompiledSystem(self.system, self.params, runtime=runtime)
         self.period = self.cs.period
