@@ -746,6 +746,8 @@ def compile_scalar(
     if e.op == "num":
         c = e.args[0]
         return lambda v: c
+    if e.op == "sym" and e.args[0] not in slots and shared is not None and f"_p_{e.args[0]}" in shared:
+        return compile_many([e], slots, scalar=True, shared=shared)
     if e.op == "sym":
         if e.args[0] not in slots:
             raise ExpressionError(f"symbol `{e.args[0]}` has no value at run time")

@@ -270,3 +270,28 @@ def test_cli_integrator_exact(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert code == 2 and "derivative of `v` is not affine in `x`" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("name", ["absorber", "isolator"])
+def test_parameters_read_at_call_time_equal_folded_ones(name):
+    """A system compiled once with its parameters read at call time (Shooter's continued parameter, the
+    pool periodic_orbit borrows from) evaluates as one compiled with the values folded in."""
+    system = getattr(models, name)()
+    base = system.preset("standard")
+    rt = CompiledSystem(system, base, runtime=tuple(system.parameter_names))
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        p = {k: v * rng.uniform(0.5, 2.0) for k, v in base.items()}
+        rt.set_runtime(p)
+        cs = CompiledSystem(system, p)
+        assert rt.period == pytest.approx(cs.period, rel=1e-15)
+        y = rng.normal(size=len(system.variable_names))
+        for a, b in zip(rt.modes, cs.modes, strict=True):
+            t = float(rng.uniform(0, 10))
+            assert np.allclose(a.guard_values(t, y), b.guard_values(t, y), rtol=1e-13, atol=1e-13)
+            assert np.allclose(a.dFdy(t, y), b.dFdy(t, y), rtol=1e-13, atol=1e-13)
+            assert np.allclose(a.rhs(t, y), b.rhs(t, y), rtol=1e-13, atol=1e-13)
+            assert np.allclose(a.taylor(t, y, 3), b.taylor(t, y, 3), rtol=1e-12, atol=1e-12)
+    borrowed = CompiledSystem.borrow(system, base, owner := type("Owner", (), {})())
+    assert borrowed.params == system.parameter_values(base)
+    del owner
