@@ -14,12 +14,14 @@ so that the iteration matrix is ``dF/dy + cj dF/dy'``.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from ._expr import Expr, compile_scalar, diff, free_symbols, neg, num, substitute, taylor_eval
+from ._expr import Expr, diff, free_symbols, neg, num, runtime_namespace, set_runtime, substitute, taylor_eval
+from ._expr import compile_scalar as _compile_scalar
 from ._system import HybridSystem
 
 __all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "AlgebraicSolveError"]
@@ -52,10 +54,19 @@ class CompiledMode:
     Parameters named in ``free`` are not folded in: they are appended to the
     state as differential variables with zero derivative, so that Jacobians
     include the derivatives with respect to them (parameter sensitivities).
+    Parameters named in ``runtime`` are not folded in either: the closures
+    read them from the namespace ``shared`` at call time
+    (:meth:`CompiledSystem.set_runtime`).
     """
 
     def __init__(
-        self, system: HybridSystem, index: int, params: Mapping[str, float], free: tuple[str, ...] = ()
+        self,
+        system: HybridSystem,
+        index: int,
+        params: Mapping[str, float],
+        free: tuple[str, ...] = (),
+        runtime: tuple[str, ...] = (),
+        shared: dict | None = None,
     ):
         mode = system.modes[index]
         data = system._cache["modes"][mode.name]
@@ -65,9 +76,14 @@ class CompiledMode:
         self.n = n = len(names)
         self.names = names
         slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
-        pconst = {k: num(v) for k, v in params.items() if k not in free}
+        pconst = {k: num(v) for k, v in params.items() if k not in free and k not in runtime}
         self._slots = slots
         self._params = dict(params)
+        self._runtime = tuple(runtime)
+        self._shared = shared
+
+        def compile_scalar(e: Expr, slots: dict, constants: dict):
+            return _compile_scalar(e, slots, constants, shared)
 
         def fold(e: Expr) -> Expr:
             return substitute(e, pconst)
@@ -247,7 +263,7 @@ class CompiledMode:
         if a.size:
             Jzz = self.dFdy(t, y)[np.ix_(a, a)]
         for k in range(order):
-            env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+            env = {"t": tj, **self._runtime_values(), **{nm: X[i] for i, nm in enumerate(self.names)}}
             for i, e in self.f_expr.items():
                 X[i, k + 1] = taylor_eval(e, env)[k] / (k + 1)
             if a.size:
@@ -268,21 +284,69 @@ class CompiledMode:
         tj[0] = t
         if order >= 1:
             tj[1] = 1.0
-        env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+        env = {"t": tj, **self._runtime_values(), **{nm: X[i] for i, nm in enumerate(self.names)}}
         return taylor_eval(self.guards[k].expr, env)
+
+    def _runtime_values(self) -> dict[str, float]:
+        return {p: self._shared[f"_p_{p}"] for p in self._runtime}
 
 
 class CompiledSystem:
-    """All modes of a system compiled for one parameter set."""
+    """All modes of a system compiled for one parameter set.
 
-    def __init__(self, system: HybridSystem, params: Mapping[str, float], free: tuple[str, ...] = ()):
+    ``free`` parameters are appended to the state (see :class:`CompiledMode`);
+    ``runtime`` parameters are read at call time, so that
+    :meth:`set_runtime` changes them without recompiling.
+    """
+
+    def __init__(
+        self,
+        system: HybridSystem,
+        params: Mapping[str, float],
+        free: tuple[str, ...] = (),
+        runtime: tuple[str, ...] = (),
+    ):
         self.system = system
         self.params = system.parameter_values(params)
         self.free = tuple(free)
-        self.modes = tuple(CompiledMode(system, k, self.params, self.free) for k in range(len(system.modes)))
+        self.runtime = tuple(runtime)
+        shared = runtime_namespace({p: self.params[p] for p in self.runtime}) if self.runtime else None
+        self._shared = shared
+        self.modes = tuple(
+            CompiledMode(system, k, self.params, self.free, self.runtime, shared)
+            for k in range(len(system.modes))
+        )
         self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
         self.period = system.period_value(self.params)
         self.names = tuple(system.variable_names) + self.free
+        self._affine = None
+
+    @classmethod
+    def borrow(cls, system: HybridSystem, params: Mapping[str, float], owner: object) -> CompiledSystem:
+        """A compiled system with every parameter read at call time, set to ``params``, lent to ``owner``.
+
+        Taken from a pool kept with ``system`` (compiled only if the pool is
+        empty) and returned to it when ``owner`` is garbage-collected, so
+        that repeated short-lived users (one periodic orbit after another at
+        new parameter values) do not recompile the system; two owners never
+        share one.
+        """
+        pool = system.__dict__.setdefault("_compiled_pool", [])
+        cs = pool.pop() if pool else cls(system, params, runtime=tuple(system.parameter_names))
+        cs.set_runtime(system.parameter_values(params))
+        weakref.finalize(owner, pool.append, cs)
+        return cs
+
+    def set_runtime(self, values: Mapping[str, float]) -> None:
+        """New values of ``runtime`` parameters (checked; the others must not change)."""
+        bad = [k for k in values if k not in self.runtime]
+        if bad:
+            raise ValueError(f"`{bad[0]}` is not a runtime parameter of this compiled system")
+        self.params = self.system.parameter_values({**self.params, **values})
+        set_runtime(self._shared, {p: self.params[p] for p in self.runtime})
+        for m in self.modes:
+            m._params = self.params
+        self.period = self.system.period_value(self.params)
         self._affine = None
 
     def affine(self) -> list:

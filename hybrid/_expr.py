@@ -618,7 +618,22 @@ _NAMESPACE: dict[str, object] = {
 }
 
 
-def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False) -> Callable:
+def runtime_namespace(values: Mapping[str, float]) -> dict:
+    """A namespace for :func:`compile_many`'s ``shared``: symbols read at call time, set by :func:`set_runtime`."""
+    ns = dict(_NAMESPACE)
+    set_runtime(ns, values)
+    return ns
+
+
+def set_runtime(ns: dict, values: Mapping[str, float]) -> None:
+    """Set the values of runtime symbols in a namespace from :func:`runtime_namespace`."""
+    for k, v in values.items():
+        ns[f"_p_{k}"] = float(v)
+
+
+def compile_many(
+    exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False, shared: dict | None = None
+) -> Callable:
     """Compile expressions into one function ``f(v) -> tuple of float``.
 
     The function is generated from the expression DAG, never from the
@@ -637,6 +652,11 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
         Name of the generated function (shown in tracebacks).
     scalar : bool
         Return the value of the single expression instead of a tuple.
+    shared : dict, optional
+        A namespace from :func:`runtime_namespace`: symbols without a slot that
+        it holds are read from it at call time (values changed with
+        :func:`set_runtime` without recompiling); it is the generated
+        function's only global namespace.
 
     Returns
     -------
@@ -646,7 +666,7 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
     """
     exprs = list(exprs)
     for e in exprs:
-        missing = e.free - slots.keys()
+        missing = {m for m in e.free - slots.keys() if shared is None or f"_p_{m}" not in shared}
         if missing:
             raise ExpressionError(f"symbol `{sorted(missing)[0]}` has no value at run time")
     refs: dict[Expr, ast.expr] = {}
@@ -661,7 +681,12 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
             refs[node] = ast.Constant(args[0])
             continue
         if op == "sym":
-            refs[node] = ast.Subscript(ast.Name("v", ast.Load()), ast.Constant(slots[args[0]]), ast.Load())
+            if args[0] in slots:
+                refs[node] = ast.Subscript(
+                    ast.Name("v", ast.Load()), ast.Constant(slots[args[0]]), ast.Load()
+                )
+            else:
+                refs[node] = ast.Name(f"_p_{args[0]}", ast.Load())
             continue
         if op == "neg":
             value = ast.UnaryOp(ast.USub(), ref(args[0]))
@@ -694,10 +719,12 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
     module = ast.fix_missing_locations(ast.Module([fdef], type_ignores=[]))
     code = compile(module, f"<hybrid {name}>", "exec")
     fcode = next(c for c in code.co_consts if isinstance(c, types.CodeType))
-    return types.FunctionType(fcode, dict(_NAMESPACE), name)
+    return types.FunctionType(fcode, dict(_NAMESPACE) if shared is None else shared, name)
 
 
-def compile_scalar(e: Expr, slots: Mapping[str, int], constants: Mapping[str, float]) -> Callable:
+def compile_scalar(
+    e: Expr, slots: Mapping[str, int], constants: Mapping[str, float], shared: dict | None = None
+) -> Callable:
     """Compile an expression into a function ``f(v) -> float``.
 
     Parameters
@@ -719,12 +746,14 @@ def compile_scalar(e: Expr, slots: Mapping[str, int], constants: Mapping[str, fl
     if e.op == "num":
         c = e.args[0]
         return lambda v: c
+    if e.op == "sym" and e.args[0] not in slots and shared is not None and f"_p_{e.args[0]}" in shared:
+        return compile_many([e], slots, scalar=True, shared=shared)
     if e.op == "sym":
         if e.args[0] not in slots:
             raise ExpressionError(f"symbol `{e.args[0]}` has no value at run time")
         i = slots[e.args[0]]
         return lambda v: v[i]
-    return compile_many([e], slots, scalar=True)
+    return compile_many([e], slots, scalar=True, shared=shared)
 
 
 # ----------------------------------------------------------------------------

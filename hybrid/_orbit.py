@@ -226,7 +226,7 @@ class Shooter:
         self.set_params(params)
         if options.integrator == "exact":
             self.cs.affine()  # refused before any run if not affine (NotAffineError)
-        self.ext = CompiledSystem(system, self.params, (free,) if free else ())
+        self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs  # same system without
         T = self.period
         self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
         nb = len(self.names)
@@ -244,8 +244,20 @@ class Shooter:
         self.nfev = 0
 
     def set_params(self, params: Mapping[str, float]) -> None:
+        """New parameter values; a change of the free parameter alone does not recompile the system."""
         self.params = self.system.parameter_values(params)
-        self.cs = CompiledSystem(self.system, self.params)
+        cs = self.__dict__.get("cs")
+        runtime = (self.free,) if self.free is not None else ()
+        if (
+            runtime
+            and cs is not None
+            and all(cs.params[k] == v for k, v in self.params.items() if k != self.free)
+        ):
+            cs.set_runtime({self.free: self.params[self.free]})  # read by the closures at call time
+        elif self.free is None and self.options.integrator == "exact":  # flows from the affine analysis
+            self.cs = CompiledSystem.borrow(self.system, self.params, self)
+        else:
+            self.cs = CompiledSystem(self.system, self.params, runtime=runtime)
         self.period = self.cs.period
         if self.period is None:
             raise ValueError(

@@ -510,8 +510,8 @@ class _Run:
 
     def project(self, cm: CompiledMode, t: float, y: np.ndarray) -> np.ndarray:
         """``y`` with the slave variables of ``cm`` re-solved (IDA's interpolant satisfies the
-        algebraic equations only to the integration tolerance)."""
-        if cm.alg_idx.size == 0:
+        algebraic equations only to the integration tolerance; the exact flow satisfies them)."""
+        if cm.alg_idx.size == 0 or self.opt.integrator == "exact":
             return np.array(y, dtype=float)
         try:
             return cm.solve_algebraic(t, y)
@@ -545,9 +545,12 @@ class _Run:
                 d = g.direction
                 eta = self.noise(cm, g.index, t, y)
                 if abs(h) <= eta:
-                    if flow_series is None:
-                        flow_series = cm.taylor(t, y, self.opt.taylor_order)
-                    series = cm.guard_series(g.index, t, y, self.opt.taylor_order, flow_series)
+                    if self.opt.integrator == "exact":  # the exact flow's series: W M^j z / j!
+                        series = self.cs.affine()[mode].guard_series(g.index, t, y, self.opt.taylor_order)
+                    else:
+                        if flow_series is None:
+                            flow_series = cm.taylor(t, y, self.opt.taylor_order)
+                        series = cm.guard_series(g.index, t, y, self.opt.taylor_order, flow_series)
                     s = lead_sign(series, eta)
                     if d != 0 and s == d:
                         fire = g

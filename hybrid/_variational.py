@@ -77,8 +77,9 @@ class _ResetJacobians:
             slots = mode._slots
             rows = []
             for i, e in g.reset_expr:
-                grads = tuple(compile_scalar(diff(e, nm), slots, {}) for nm in mode.names)
-                rows.append((i, grads, compile_scalar(diff(e, "t"), slots, {})))
+                ns = mode._shared
+                grads = tuple(compile_scalar(diff(e, nm), slots, {}, ns) for nm in mode.names)
+                rows.append((i, grads, compile_scalar(diff(e, "t"), slots, {}, ns)))
             self._cache[key] = tuple(rows)
         n = mode.n
         R_y = np.eye(n)
@@ -196,22 +197,33 @@ class Sensitivity:
         self.nfev = 0
 
     def _exact_solver(self, m: int, extend: np.ndarray):
-        """The exact flow's sensitivity in mode ``m`` at the free parameters' values ``extend``."""
-        from ._exact import ExactSensitivity  # the exact integrator builds on this module's inputs
+        """The exact flow's sensitivity in mode ``m`` at the free parameters' values ``extend``.
+
+        The flows come from the system's parametric affine analysis (microseconds per parameter
+        set); the column of a free parameter is the central difference of the exact flows at
+        ``p +- delta`` (:class:`hybrid._exact.ExactSensitivity`).
+        """
+        from ._exact import ExactSensitivity, NotAffineError, affine_flows  # builds on this module's inputs
+
+        def flows(params):
+            try:
+                return affine_flows(cs.system, params)
+            except NotAffineError:  # affine only at these values: analysed on folded expressions
+                return CompiledSystem(cs.system, params).affine()
 
         key = tuple(float(v) for v in extend)
         if self._exact_key != key:
             cs = self.cs
             params = {**cs.params, **dict(zip(cs.free, key, strict=True))}
-            base = CompiledSystem(cs.system, params).affine()
+            base = flows(params)
             pm = None
             if cs.free:
                 if len(cs.free) > 1:
                     raise ValueError("the exact integrator differentiates by one free parameter at most")
                 p = cs.free[0]
                 delta = 1e-6 * max(abs(params[p]), 1e-3)
-                plus = CompiledSystem(cs.system, {**params, p: params[p] + delta}).affine()
-                minus = CompiledSystem(cs.system, {**params, p: params[p] - delta}).affine()
+                plus = flows({**params, p: params[p] + delta})
+                minus = flows({**params, p: params[p] - delta})
                 pm = (plus, minus, delta)
             self._exact_modes = {
                 k: ExactSensitivity(base[k], self.s, None if pm is None else (pm[0][k], pm[1][k], pm[2]))
