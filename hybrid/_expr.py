@@ -618,7 +618,26 @@ _NAMESPACE: dict[str, object] = {
 }
 
 
-def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False) -> Callable:
+def runtime_namespace(values: Mapping[str, float]) -> dict:
+    """A namespace for :func:`compile_many` whose symbols ``values`` are read at run time.
+
+    Functions compiled with it read each such symbol from the namespace at every call, so
+    :func:`set_runtime` changes them in every function that shares the namespace at once.
+    """
+    ns = dict(_NAMESPACE)
+    set_runtime(ns, values)
+    return ns
+
+
+def set_runtime(namespace: dict, values: Mapping[str, float]) -> None:
+    """Set the run-time symbols of a :func:`runtime_namespace`."""
+    for k, v in values.items():
+        namespace[f"_p_{k}"] = float(v)
+
+
+def compile_many(
+    exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False, namespace: dict | None = None
+) -> Callable:
     """Compile expressions into one function ``f(v) -> tuple of float``.
 
     The function is generated from the expression DAG, never from the
@@ -637,6 +656,9 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
         Name of the generated function (shown in tracebacks).
     scalar : bool
         Return the value of the single expression instead of a tuple.
+    namespace : dict, optional
+        A :func:`runtime_namespace`: symbols without a slot that it holds are read from it at
+        every call (shared by all functions compiled with it).
 
     Returns
     -------
@@ -645,8 +667,9 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
         with ``scalar=True``).
     """
     exprs = list(exprs)
+    glob = dict(_NAMESPACE) if namespace is None else namespace
     for e in exprs:
-        missing = e.free - slots.keys()
+        missing = {s for s in e.free - slots.keys() if f"_p_{s}" not in glob}
         if missing:
             raise ExpressionError(f"symbol `{sorted(missing)[0]}` has no value at run time")
     refs: dict[Expr, ast.expr] = {}
@@ -661,7 +684,12 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
             refs[node] = ast.Constant(args[0])
             continue
         if op == "sym":
-            refs[node] = ast.Subscript(ast.Name("v", ast.Load()), ast.Constant(slots[args[0]]), ast.Load())
+            if args[0] in slots:
+                refs[node] = ast.Subscript(
+                    ast.Name("v", ast.Load()), ast.Constant(slots[args[0]]), ast.Load()
+                )
+            else:
+                refs[node] = ast.Name(f"_p_{args[0]}", ast.Load())
             continue
         if op == "neg":
             value = ast.UnaryOp(ast.USub(), ref(args[0]))
@@ -694,7 +722,7 @@ def compile_many(exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bo
     module = ast.fix_missing_locations(ast.Module([fdef], type_ignores=[]))
     code = compile(module, f"<hybrid {name}>", "exec")
     fcode = next(c for c in code.co_consts if isinstance(c, types.CodeType))
-    return types.FunctionType(fcode, dict(_NAMESPACE), name)
+    return types.FunctionType(fcode, glob, name)
 
 
 def compile_scalar(e: Expr, slots: Mapping[str, int], constants: Mapping[str, float]) -> Callable:
