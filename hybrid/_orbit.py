@@ -250,6 +250,41 @@ def compiled(
     return cs
 
 
+class _Deferred:
+    """An unsampled one-period run standing for the sampled one: its start, end, events, status
+    and counts are the run's own; the samples (``t``, ``y``, ``mode``, ``outputs``, ``tr[name]``)
+    come from the sampled run, made on first use (:meth:`materialize`)."""
+
+    _SAMPLED = frozenset({"t", "y", "mode", "outputs", "n_samples"})
+
+    def __init__(self, base: Trajectory, make):
+        self.base = base
+        self._make = make
+        self._full: Trajectory | None = None
+
+    def materialize(self) -> Trajectory:
+        if self._full is None:
+            self._full = self._make()
+        return self._full
+
+    def __getattr__(self, name: str):
+        if name in _Deferred._SAMPLED:
+            return getattr(self.materialize(), name)
+        return getattr(self.base, name)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.materialize()[name]
+
+
+def _sampled(tr):
+    return tr.materialize() if isinstance(tr, _Deferred) else tr
+
+
+class ParameterOutOfDomain(ValueError, RuntimeError):
+    """An iteration (e.g. a continuation's corrector) reached a parameter value outside its domain:
+    a failed iteration (a RuntimeError to the caller's recovery), not bad input."""
+
+
 class Shooter:
     """The stroboscopic map of one system and its derivatives (state and, optionally, one parameter).
 
@@ -296,8 +331,13 @@ class Shooter:
         self.nfev = 0
 
     def set_params(self, params: Mapping[str, float]) -> None:
-        self.params = self.system.parameter_values(params)
         cs = getattr(self, "cs", None)
+        try:
+            self.params = self.system.parameter_values(params)
+        except ValueError as exc:
+            if cs is None:
+                raise  # the caller's input
+            raise ParameterOutOfDomain(str(exc)) from None
         if (
             cs is not None
             and cs.runtime
@@ -328,8 +368,18 @@ class Shooter:
     def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
         """One period from ``(t0, y0, mode0)`` (quadratures reset to 0).
 
+        With ``samples`` the run is made without them and returned as a :class:`_Deferred`: the
+        sampled run (about twice as costly) is made only if its samples are used, e.g. for an
+        accepted orbit, not at every iteration of a corrector.
+
         A run that exhausts its budget raises :class:`hybrid._budget.BudgetExceeded`.
         """
+        tr = self._run(y0, mode0, t0, None)
+        if samples and tr.success:
+            return _Deferred(tr, lambda: self._run(y0, mode0, t0, samples))
+        return tr
+
+    def _run(self, y0: np.ndarray, mode0: str, t0: float, samples: int | None) -> Trajectory:
         y = np.array(y0, dtype=float)
         for q in self.system.quadratures:
             y[self.names.index(q)] = 0.0
@@ -343,8 +393,9 @@ class Shooter:
 
     def monodromy(self, tr: Trajectory) -> np.ndarray:
         """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
+        base = tr.base if isinstance(tr, _Deferred) else tr
         return self.sens.fundamental(
-            tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values
+            base.t_start, base.y[0], base.mode_start, base.t_final, base.events, self.ext_values
         )
 
     def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
@@ -990,7 +1041,7 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0):
 
 
 def _choose_section_period(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
-    t, y, m = _choose_section(tr, T)
+    t, y, m = _choose_section(_sampled(tr), T)
     return t - math.floor(t / T) * T, y, m
 
 
@@ -998,8 +1049,7 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     """Build the orbit from its section state (``tr``, ``M``: its sampled run and monodromy, if known)."""
     sys_ = shooter.system
     names = shooter.names
-    if tr is None:
-        tr = shooter.run(y, mode0, t0, samples=samples)
+    tr = shooter._run(y, mode0, t0, samples) if tr is None else _sampled(tr)
     if M is None:
         M = shooter.monodromy(tr)
     s = shooter.s
