@@ -836,9 +836,10 @@ def newton(
     J_here = False  # J is the exact one at the current iterate
     # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
     # and its exact Newton steps reach rounding.
-    broyden = shooter.options.integrator != "exact"
+    broyden = BROYDEN and shooter.options.integrator != "exact"
     # Relative accuracy of one run of the map (the exact integrator's is rounding).
-    noise_rtol = shooter.options.rtol if broyden else 1e-15
+    noise_rtol = shooter.options.rtol if shooter.options.integrator != "exact" else 1e-15
+    settle = False  # the residual met the tolerance and a further correction found no decrease
     while True:
         at[:] = [y, mode0, t0, it]
         if tr is None:
@@ -850,11 +851,15 @@ def newton(
         res_norm = float(np.max(np.abs(r))) / scale
         g = shooter.gauge(y)
         gauge_bad = family and g is not None and abs(g[0]) > tol * scale
-        if res_norm <= tol and not gauge_bad and J is None and not broyden and 0 < it < max_iter:
+        if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
             # the exact integrator: judge the correction with the exact Jacobian here (cheap)
             M = shooter.monodromy(tr)
             J, J_here = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
-        if res_norm <= tol and not gauge_bad and _settled(J, r, tol, scale, rcond, noise_rtol, it, max_iter):
+        if (
+            res_norm <= tol
+            and not gauge_bad
+            and (settle or _settled(J, r, tol, scale, rcond, noise_rtol, it, max_iter))
+        ):
             if tr.mode_final == mode0:
                 break
             if rephased < 3:  # converged onto a section at a switch: move the section
@@ -935,6 +940,9 @@ def newton(
             J = None  # the updated Jacobian gave no descent: recompute it exactly at y
         if stalled:
             continue
+        if found is None and res_norm <= tol:
+            settle = True  # the correction asked for by _settled is below what the runs resolve
+            continue
         if found is None:
             if res_norm <= 0.1:
                 return _failed(
@@ -986,6 +994,8 @@ def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int,
     return float(np.max(np.abs(corr))) <= max(tol, noise) * scale
 
 
+#: Broyden's updates of I - M between exact monodromies on the IDA path (False: exact Newton).
+BROYDEN = True
 #: Armijo's sufficient-decrease constant.
 ARMIJO = 1e-4
 #: Step halvings of the line search.
