@@ -20,11 +20,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._expr import Expr, diff, free_symbols, neg, num, runtime_namespace, set_runtime, substitute, taylor_eval
-from ._expr import compile_scalar as _compile_scalar
+from ._expr import (
+    Expr,
+    compile_many,
+    diff,
+    free_symbols,
+    neg,
+    num,
+    runtime_namespace,
+    set_runtime,
+    sub,
+    substitute,
+    sym,
+    taylor_eval,
+)
 from ._system import HybridSystem
 
 __all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "AlgebraicSolveError"]
+
+#: Prefix of the generated residual's slots for ``y'`` (not a valid model name: no clash).
+_YP = " yp"
 
 
 class AlgebraicSolveError(RuntimeError):
@@ -41,7 +56,7 @@ class CompiledGuard:
     target: int  # target mode index
     direction: int
     expr: Expr
-    fn: object  # closure v -> float
+    fn: object  # function v -> float
     grad: tuple  # closures v -> dh/dy_j (None where identically zero)
     grad_t: object
     reset: tuple  # ((var index, closure), ...)
@@ -49,14 +64,19 @@ class CompiledGuard:
 
 
 class CompiledMode:
-    """One mode's equations, Jacobians, guards and outputs as closures.
+    """One mode's equations, Jacobians, guards and outputs as generated functions.
+
+    The residual of all rows, the non-constant entries of ``dF/dy`` and the values of all guards
+    are each one straight-line function of the mode (:func:`hybrid._expr.compile_many`: shared
+    sub-expressions computed once per call).
 
     Parameters named in ``free`` are not folded in: they are appended to the
     state as differential variables with zero derivative, so that Jacobians
     include the derivatives with respect to them (parameter sensitivities).
-    Parameters named in ``runtime`` are not folded in either: the closures
-    read them from the namespace ``shared`` at call time
-    (:meth:`CompiledSystem.set_runtime`).
+    Parameters named in ``runtime`` are not folded in either: the generated
+    functions read them from ``namespace`` (:func:`hybrid._expr.runtime_namespace`)
+    at every call, so that :meth:`CompiledSystem.set_runtime` changes them
+    without compiling again.
     """
 
     def __init__(
@@ -66,7 +86,7 @@ class CompiledMode:
         params: Mapping[str, float],
         free: tuple[str, ...] = (),
         runtime: tuple[str, ...] = (),
-        shared: dict | None = None,
+        namespace: dict | None = None,
     ):
         mode = system.modes[index]
         data = system._cache["modes"][mode.name]
@@ -80,10 +100,10 @@ class CompiledMode:
         self._slots = slots
         self._params = dict(params)
         self._runtime = tuple(runtime)
-        self._shared = shared
+        self._ns = namespace if namespace is not None else runtime_namespace({})
 
-        def compile_scalar(e: Expr, slots: dict, constants: dict):
-            return _compile_scalar(e, slots, constants, shared)
+        def comp(e: Expr):
+            return compile_many([e], slots, namespace=self._ns, scalar=True)
 
         def fold(e: Expr) -> Expr:
             return substitute(e, pconst)
@@ -96,26 +116,50 @@ class CompiledMode:
         # Row expressions: derivative for differential rows, residual for algebraic rows.
         self.f_expr = {i: fold(derivs[names[i]]) for i in self.diff_idx}
         self.g_expr = {i: fold(data["algebraic"][names[i]]) for i in self.alg_idx}
-        self.f = [(int(i), compile_scalar(e, slots, {})) for i, e in self.f_expr.items()]
-        self.g = [(int(i), compile_scalar(e, slots, {})) for i, e in self.g_expr.items()]
+        # The residual F(t, y, y') of all rows, as one function of v = [t, y..., y'...].
+        res_slots = {**slots, **{f"{_YP}{i}": n + 1 + i for i in range(n)}}
+        rows: list[Expr] = [num(0.0)] * n
+        for i, e in self.f_expr.items():
+            rows[i] = sub(sym(f"{_YP}{i}"), e)
+        for i, e in self.g_expr.items():
+            rows[i] = e
+        self._res_fn = compile_many(rows, res_slots, f"residual_{mode.name}", namespace=self._ns)
+        self._f_pos = np.array(sorted(self.f_expr), dtype=int)
 
-        # dF/dy: constant entries in a dense base matrix, the rest as closures.
+        # dF/dy: constant entries in a dense base matrix, the rest in one function.
         self.jac_base = np.zeros((n, n))
-        self.jac_terms: list[tuple[int, int, object]] = []
-        rows = [(i, self.f_expr[i], -1.0) for i in self.diff_idx] + [
+        self.jac_terms: list[tuple[int, int, Expr]] = []
+        jrows = [(i, self.f_expr[i], -1.0) for i in self.diff_idx] + [
             (i, self.g_expr[i], 1.0) for i in self.alg_idx
         ]
-        for i, e, sgn in rows:
+        for i, e, sgn in jrows:
             for j, nm in enumerate(names):
                 d = diff(e, nm)
                 if d.op == "num":
                     self.jac_base[i, j] = sgn * d.args[0]
                 else:
-                    dd = d if sgn > 0 else neg(d)
-                    self.jac_terms.append((int(i), j, compile_scalar(dd, slots, {})))
+                    self.jac_terms.append((int(i), j, d if sgn > 0 else neg(d)))
+        self._jac_fn = (
+            compile_many(
+                [e for _, _, e in self.jac_terms], slots, f"jacobian_{mode.name}", namespace=self._ns
+            )
+            if self.jac_terms
+            else None
+        )
+        self._jac_at = (
+            np.array([i for i, _, _ in self.jac_terms], dtype=int),
+            np.array([j for _, j, _ in self.jac_terms], dtype=int),
+        )
         self.cj_mask = np.diag(self.is_diff.astype(float))
+        # g_z constant (every entry of the slave block in jac_base): its inverse, for solve_algebraic.
+        self._gzz_inv = None
+        a = self.alg_idx
+        if a.size and not any(i in set(a.tolist()) and j in set(a.tolist()) for i, j, _ in self.jac_terms):
+            gzz = self.jac_base[np.ix_(a, a)]
+            if np.linalg.cond(gzz) < 1e12:
+                self._gzz_inv = np.linalg.inv(gzz)
         # d g / d t for the derivatives of slave variables.
-        self.g_t = [(int(i), compile_scalar(diff(e, "t"), slots, {})) for i, e in self.g_expr.items()]
+        self.g_t = [(int(i), comp(diff(e, "t"))) for i, e in self.g_expr.items()]
 
         # Guards of transitions leaving this mode.
         guards = []
@@ -127,9 +171,9 @@ class CompiledMode:
             grad = []
             for nm in names:
                 d = diff(h, nm)
-                grad.append(None if (d.op == "num" and d.args[0] == 0.0) else compile_scalar(d, slots, {}))
+                grad.append(None if (d.op == "num" and d.args[0] == 0.0) else comp(d))
             reset_expr = tuple((names.index(v), fold(e)) for v, e in td["reset"].items())
-            reset = tuple((i, compile_scalar(e, slots, {})) for i, e in reset_expr)
+            reset = tuple((i, comp(e)) for i, e in reset_expr)
             guards.append(
                 CompiledGuard(
                     index=len(guards),
@@ -138,34 +182,40 @@ class CompiledMode:
                     target=mode_index[tr.target],
                     direction=tr.direction,
                     expr=h,
-                    fn=compile_scalar(h, slots, {}),
+                    fn=comp(h),
                     grad=tuple(grad),
-                    grad_t=compile_scalar(diff(h, "t"), slots, {}),
+                    grad_t=comp(diff(h, "t")),
                     reset=reset,
                     reset_expr=reset_expr,
                 )
             )
         self.guards: tuple[CompiledGuard, ...] = tuple(guards)
-        self.outputs = {o: compile_scalar(fold(data["defs"][o]), slots, {}) for o in system.outputs}
+        self._guards_fn = (
+            compile_many([g.expr for g in guards], slots, f"guards_{mode.name}", namespace=self._ns)
+            if guards
+            else None
+        )
+        self.outputs = {o: comp(fold(data["defs"][o])) for o in system.outputs}
+
+    def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
+        env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+        for p in self._runtime:
+            env[p] = self._ns[f"_p_{p}"]
+        return env
 
     # ------------------------------------------------------------------
     # Residual and Jacobian (backend-independent: plain arrays in and out)
     def residual(self, t: float, y: np.ndarray, yp: np.ndarray, out: np.ndarray) -> None:
         """Fill ``out`` with the DAE residual ``F(t, y, y')``."""
-        v = [t, *y.tolist()]
-        for i, f in self.f:
-            out[i] = yp[i] - f(v)
-        for i, g in self.g:
-            out[i] = g(v)
+        out[: self.n] = self._res_fn([t, *y[: self.n].tolist(), *yp[: self.n].tolist()])
 
     def jacobian(self, t: float, y: np.ndarray, cj: float, out: np.ndarray) -> None:
         """Fill ``out`` with ``dF/dy + cj dF/dy'``."""
         out[:, :] = self.jac_base
-        if self.jac_terms:
-            v = [t, *y.tolist()]
-            for i, j, fn in self.jac_terms:
-                out[i, j] = fn(v)
-        out += cj * self.cj_mask
+        if self._jac_fn is not None:
+            out[self._jac_at] = self._jac_fn([t, *y.tolist()])
+        d = self.diff_idx
+        out[d, d] += cj
 
     def dFdy(self, t: float, y: np.ndarray) -> np.ndarray:
         """``dF/dy`` (rows: -df/dy for differential, dg/dy for slave variables)."""
@@ -176,10 +226,11 @@ class CompiledMode:
     # ------------------------------------------------------------------
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """Derivatives of the differential variables (zeros at slave positions)."""
-        v = [t, *np.asarray(y, dtype=float).tolist()]
+        y = np.asarray(y, dtype=float)
         out = np.zeros(self.n)
-        for i, f in self.f:
-            out[i] = f(v)
+        F = self._res_fn([t, *y.tolist(), *([0.0] * self.n)])
+        p = self._f_pos
+        out[p] = np.negative(np.take(F, p))
         return out
 
     def solve_algebraic(
@@ -191,12 +242,15 @@ class CompiledMode:
             return y
         a = self.alg_idx
         res = np.zeros(self.n)
+        zero = np.zeros(self.n)
         for _ in range(maxiter):
-            self.residual(t, y, np.zeros(self.n), res)
+            self.residual(t, y, zero, res)
             r = res[a]
-            J = self.dFdy(t, y)[np.ix_(a, a)]
             try:
-                step = np.linalg.solve(J, r)
+                if self._gzz_inv is not None:  # constant g_z: no Jacobian to evaluate or factor
+                    step = self._gzz_inv @ r
+                else:
+                    step = np.linalg.solve(self.dFdy(t, y)[np.ix_(a, a)], r)
             except np.linalg.LinAlgError:
                 raise AlgebraicSolveError(
                     f"mode `{self.name}`: the algebraic equations are singular in the slave variables at t={t!r}"
@@ -204,7 +258,7 @@ class CompiledMode:
             y[a] -= step
             scale = 1.0 + np.abs(y[a])
             if np.all(np.abs(step) <= tol * scale):
-                self.residual(t, y, np.zeros(self.n), res)
+                self.residual(t, y, zero, res)
                 if np.all(np.isfinite(res[a])):
                     return y
         raise AlgebraicSolveError(
@@ -230,8 +284,9 @@ class CompiledMode:
 
     def guard_values(self, t: float, y: np.ndarray) -> np.ndarray:
         """Values of this mode's guards at ``(t, y)``."""
-        v = [t, *np.asarray(y, dtype=float).tolist()]
-        return np.array([g.fn(v) for g in self.guards])
+        if self._guards_fn is None:
+            return np.zeros(0)
+        return np.array(self._guards_fn([t, *np.asarray(y, dtype=float).tolist()]))
 
     def guard_gradient(self, k: int, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
         """``(dh/dy, dh/dt)`` of guard ``k`` at ``(t, y)``."""
@@ -263,7 +318,7 @@ class CompiledMode:
         if a.size:
             Jzz = self.dFdy(t, y)[np.ix_(a, a)]
         for k in range(order):
-            env = {"t": tj, **self._runtime_values(), **{nm: X[i] for i, nm in enumerate(self.names)}}
+            env = self._env(tj, X)
             for i, e in self.f_expr.items():
                 X[i, k + 1] = taylor_eval(e, env)[k] / (k + 1)
             if a.size:
@@ -284,11 +339,8 @@ class CompiledMode:
         tj[0] = t
         if order >= 1:
             tj[1] = 1.0
-        env = {"t": tj, **self._runtime_values(), **{nm: X[i] for i, nm in enumerate(self.names)}}
-        return taylor_eval(self.guards[k].expr, env)
+        return taylor_eval(self.guards[k].expr, self._env(tj, X))
 
-    def _runtime_values(self) -> dict[str, float]:
-        return {p: self._shared[f"_p_{p}"] for p in self._runtime}
 
 
 class CompiledSystem:
@@ -310,10 +362,9 @@ class CompiledSystem:
         self.params = system.parameter_values(params)
         self.free = tuple(free)
         self.runtime = tuple(runtime)
-        shared = runtime_namespace({p: self.params[p] for p in self.runtime}) if self.runtime else None
-        self._shared = shared
+        self._ns = runtime_namespace({p: self.params[p] for p in self.runtime})
         self.modes = tuple(
-            CompiledMode(system, k, self.params, self.free, self.runtime, shared)
+            CompiledMode(system, k, self.params, self.free, self.runtime, self._ns)
             for k in range(len(system.modes))
         )
         self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
@@ -333,20 +384,21 @@ class CompiledSystem:
         """
         pool = system.__dict__.setdefault("_compiled_pool", [])
         cs = pool.pop() if pool else cls(system, params, runtime=tuple(system.parameter_names))
-        cs.set_runtime(system.parameter_values(params))
+        cs.set_runtime(params)
         weakref.finalize(owner, pool.append, cs)
         return cs
 
-    def set_runtime(self, values: Mapping[str, float]) -> None:
-        """New values of ``runtime`` parameters (checked; the others must not change)."""
-        bad = [k for k in values if k not in self.runtime]
-        if bad:
-            raise ValueError(f"`{bad[0]}` is not a runtime parameter of this compiled system")
-        self.params = self.system.parameter_values({**self.params, **values})
-        set_runtime(self._shared, {p: self.params[p] for p in self.runtime})
+    def set_runtime(self, params: Mapping[str, float]) -> None:
+        """New parameter values that differ from the compiled ones only in ``runtime`` parameters."""
+        new = self.system.parameter_values({**self.params, **params})
+        changed = [k for k in new if new[k] != self.params[k] and k not in self.runtime]
+        if changed:
+            raise ValueError(f"parameter `{changed[0]}` is compiled in as a constant: compile again")
+        self.params = new
+        set_runtime(self._ns, {p: new[p] for p in self.runtime})
         for m in self.modes:
-            m._params = self.params
-        self.period = self.system.period_value(self.params)
+            m._params = new
+        self.period = self.system.period_value(new)
         self._affine = None
 
     def affine(self) -> list:

@@ -153,12 +153,12 @@ class ModeSolver:
         if mode.alg_idx.size:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
-            armed, safe, fns = self.armed, self.safe, self._guard_fns
+            armed, safe, gfn = self.armed, self.safe, mode._guards_fn
 
             def eventsfn(t, y, yp, out):
-                v = [t, *y.tolist()]
-                for k, fn in enumerate(fns):
-                    out[k] = fn(v) if armed[k] else safe[k]
+                out[:] = gfn([t, *y.tolist()])  # all guards in one generated function
+                if not armed.all():
+                    out[~armed] = safe[~armed]
 
             eventsfn.terminal = [True] * ng
             eventsfn.direction = [g.direction for g in mode.guards]

@@ -619,20 +619,24 @@ _NAMESPACE: dict[str, object] = {
 
 
 def runtime_namespace(values: Mapping[str, float]) -> dict:
-    """A namespace for :func:`compile_many`'s ``shared``: symbols read at call time, set by :func:`set_runtime`."""
+    """A namespace for :func:`compile_many` whose symbols ``values`` are read at run time.
+
+    Functions compiled with it read each such symbol from the namespace at every call, so
+    :func:`set_runtime` changes them in every function that shares the namespace at once.
+    """
     ns = dict(_NAMESPACE)
     set_runtime(ns, values)
     return ns
 
 
-def set_runtime(ns: dict, values: Mapping[str, float]) -> None:
-    """Set the values of runtime symbols in a namespace from :func:`runtime_namespace`."""
+def set_runtime(namespace: dict, values: Mapping[str, float]) -> None:
+    """Set the run-time symbols of a :func:`runtime_namespace`."""
     for k, v in values.items():
-        ns[f"_p_{k}"] = float(v)
+        namespace[f"_p_{k}"] = float(v)
 
 
 def compile_many(
-    exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False, shared: dict | None = None
+    exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False, namespace: dict | None = None
 ) -> Callable:
     """Compile expressions into one function ``f(v) -> tuple of float``.
 
@@ -652,11 +656,9 @@ def compile_many(
         Name of the generated function (shown in tracebacks).
     scalar : bool
         Return the value of the single expression instead of a tuple.
-    shared : dict, optional
-        A namespace from :func:`runtime_namespace`: symbols without a slot that
-        it holds are read from it at call time (values changed with
-        :func:`set_runtime` without recompiling); it is the generated
-        function's only global namespace.
+    namespace : dict, optional
+        A :func:`runtime_namespace`: symbols without a slot that it holds are read from it at
+        every call (shared by all functions compiled with it).
 
     Returns
     -------
@@ -665,8 +667,9 @@ def compile_many(
         with ``scalar=True``).
     """
     exprs = list(exprs)
+    glob = dict(_NAMESPACE) if namespace is None else namespace
     for e in exprs:
-        missing = {m for m in e.free - slots.keys() if shared is None or f"_p_{m}" not in shared}
+        missing = {s for s in e.free - slots.keys() if f"_p_{s}" not in glob}
         if missing:
             raise ExpressionError(f"symbol `{sorted(missing)[0]}` has no value at run time")
     refs: dict[Expr, ast.expr] = {}
@@ -719,11 +722,11 @@ def compile_many(
     module = ast.fix_missing_locations(ast.Module([fdef], type_ignores=[]))
     code = compile(module, f"<hybrid {name}>", "exec")
     fcode = next(c for c in code.co_consts if isinstance(c, types.CodeType))
-    return types.FunctionType(fcode, dict(_NAMESPACE) if shared is None else shared, name)
+    return types.FunctionType(fcode, glob, name)
 
 
 def compile_scalar(
-    e: Expr, slots: Mapping[str, int], constants: Mapping[str, float], shared: dict | None = None
+    e: Expr, slots: Mapping[str, int], constants: Mapping[str, float], namespace: dict | None = None
 ) -> Callable:
     """Compile an expression into a function ``f(v) -> float``.
 
@@ -746,14 +749,14 @@ def compile_scalar(
     if e.op == "num":
         c = e.args[0]
         return lambda v: c
-    if e.op == "sym" and e.args[0] not in slots and shared is not None and f"_p_{e.args[0]}" in shared:
-        return compile_many([e], slots, scalar=True, shared=shared)
+    if e.op == "sym" and e.args[0] not in slots and namespace is not None and f"_p_{e.args[0]}" in namespace:
+        return compile_many([e], slots, scalar=True, namespace=namespace)
     if e.op == "sym":
         if e.args[0] not in slots:
             raise ExpressionError(f"symbol `{e.args[0]}` has no value at run time")
         i = slots[e.args[0]]
         return lambda v: v[i]
-    return compile_many([e], slots, scalar=True, shared=shared)
+    return compile_many([e], slots, scalar=True, namespace=namespace)
 
 
 # ----------------------------------------------------------------------------

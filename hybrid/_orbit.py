@@ -29,6 +29,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from ._budget import BudgetExceeded
 from ._compiled import CompiledSystem
@@ -199,6 +200,91 @@ class PeriodicOrbit:
 
 
 # ----------------------------------------------------------------------
+#: Compiled systems kept per model (the most recent parameter sets).
+COMPILED_CACHE = 4
+
+
+def compiled(
+    system: HybridSystem,
+    params: Mapping[str, float],
+    runtime: tuple[str, ...] = (),
+    *,
+    reuse_runtime: bool = True,
+) -> CompiledSystem:
+    """A compiled system for ``params``, reused from the model's recent ones where possible.
+
+    With ``runtime`` parameters the result is private (its run-time values change). Otherwise:
+    the same parameter set as a recent one reuses it; a set that differs from a recent one in a
+    single parameter gets a system compiled with that parameter read at run time (a sweep or a
+    continuation neighbour compiles once), set to the requested value at every reuse (so a
+    system returned here is only valid until the next call; ``reuse_runtime=False``, e.g. for the
+    exact integrator, which needs every parameter folded, never returns such a one).
+    """
+    if runtime:
+        return CompiledSystem(system, params, runtime=runtime)
+    params = system.parameter_values(params)
+    cache: list = system._cache.setdefault("compiled", [])
+    # Parameters in a reset stay folded (the saltation code compiles reset derivatives on its own).
+    resets = set().union(*(e.free for td in system._cache["transitions"] for e in td["reset"].values()))
+    best = None
+    for k, cs in enumerate(cache):
+        differ = [p for p, v in params.items() if v != cs.params[p]]
+        if (not differ and (reuse_runtime or not cs.runtime)) or (
+            reuse_runtime and cs.runtime and set(differ) <= set(cs.runtime)
+        ):
+            best = k
+            break
+        if reuse_runtime and not cs.runtime and len(differ) == 1 and best is None and differ[0] not in resets:
+            best = (differ[0],)
+    if isinstance(best, int):
+        cs = cache.pop(best)
+        if cs.runtime:
+            cs.set_runtime(params)
+    elif best is not None:
+        cs = CompiledSystem(system, params, runtime=best)
+    else:
+        cs = CompiledSystem(system, params)
+    while len(cache) >= COMPILED_CACHE:
+        cache.pop(0)
+    cache.append(cs)  # most recent last
+    return cs
+
+
+class _Deferred:
+    """An unsampled one-period run standing for the sampled one: its start, end, events, status
+    and counts are the run's own; the samples (``t``, ``y``, ``mode``, ``outputs``, ``tr[name]``)
+    come from the sampled run, made on first use (:meth:`materialize`)."""
+
+    _SAMPLED = frozenset({"t", "y", "mode", "outputs", "n_samples"})
+
+    def __init__(self, base: Trajectory, make):
+        self.base = base
+        self._make = make
+        self._full: Trajectory | None = None
+
+    def materialize(self) -> Trajectory:
+        if self._full is None:
+            self._full = self._make()
+        return self._full
+
+    def __getattr__(self, name: str):
+        if name in _Deferred._SAMPLED:
+            return getattr(self.materialize(), name)
+        return getattr(self.base, name)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.materialize()[name]
+
+
+def _sampled(tr):
+    return tr.materialize() if isinstance(tr, _Deferred) else tr
+
+
+class ParameterOutOfDomain(ValueError, RuntimeError):
+    """An iteration (e.g. a continuation's corrector) reached a parameter value outside its domain:
+    a failed iteration (a RuntimeError to the caller's recovery), not bad input."""
+
+
 class Shooter:
     """The stroboscopic map of one system and its derivatives (state and, optionally, one parameter).
 
@@ -226,7 +312,8 @@ class Shooter:
         self.set_params(params)
         if options.integrator == "exact":
             self.cs.affine()  # refused before any run if not affine (NotAffineError)
-        self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs  # same system without
+        # Without a free parameter the variational runs use the same compiled system.
+        self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
         T = self.period
         self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
         nb = len(self.names)
@@ -244,20 +331,28 @@ class Shooter:
         self.nfev = 0
 
     def set_params(self, params: Mapping[str, float]) -> None:
-        """New parameter values; a change of the free parameter alone does not recompile the system."""
-        self.params = self.system.parameter_values(params)
-        cs = self.__dict__.get("cs")
-        runtime = (self.free,) if self.free is not None else ()
+        cs = getattr(self, "cs", None)
+        try:
+            self.params = self.system.parameter_values(params)
+        except ValueError as exc:
+            if cs is None:
+                raise  # the caller's input
+            raise ParameterOutOfDomain(str(exc)) from None
         if (
-            runtime
-            and cs is not None
-            and all(cs.params[k] == v for k, v in self.params.items() if k != self.free)
+            cs is not None
+            and cs.runtime
+            and all(v == cs.params[k] for k, v in self.params.items() if k not in cs.runtime)
         ):
-            cs.set_runtime({self.free: self.params[self.free]})  # read by the closures at call time
-        elif self.free is None and self.options.integrator == "exact":  # flows from the affine analysis
+            cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
+        elif self.free is None and self.options.integrator == "exact":
+            # every parameter read at call time: the exact flows come from the affine analysis
             self.cs = CompiledSystem.borrow(self.system, self.params, self)
         else:
-            self.cs = CompiledSystem(self.system, self.params, runtime=runtime)
+            # The free parameter is read at run time (set_runtime), except by the exact integrator.
+            runtime = (self.free,) if self.free is not None and self.options.integrator != "exact" else ()
+            self.cs = compiled(
+                self.system, self.params, runtime, reuse_runtime=self.options.integrator != "exact"
+            )
         self.period = self.cs.period
         if self.period is None:
             raise ValueError(
@@ -276,8 +371,18 @@ class Shooter:
     def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
         """One period from ``(t0, y0, mode0)`` (quadratures reset to 0).
 
+        With ``samples`` the run is made without them and returned as a :class:`_Deferred`: the
+        sampled run (about twice as costly) is made only if its samples are used, e.g. for an
+        accepted orbit, not at every iteration of a corrector.
+
         A run that exhausts its budget raises :class:`hybrid._budget.BudgetExceeded`.
         """
+        tr = self._run(y0, mode0, t0, None)
+        if samples and tr.success:
+            return _Deferred(tr, lambda: self._run(y0, mode0, t0, samples))
+        return tr
+
+    def _run(self, y0: np.ndarray, mode0: str, t0: float, samples: int | None) -> Trajectory:
         y = np.array(y0, dtype=float)
         for q in self.system.quadratures:
             y[self.names.index(q)] = 0.0
@@ -291,8 +396,9 @@ class Shooter:
 
     def monodromy(self, tr: Trajectory) -> np.ndarray:
         """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
+        base = tr.base if isinstance(tr, _Deferred) else tr
         return self.sens.fundamental(
-            tr.t_start, tr.y[0], tr.mode_start, tr.t_final, tr.events, self.ext_values
+            base.t_start, base.y[0], base.mode_start, base.t_final, base.events, self.ext_values
         )
 
     def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
@@ -342,6 +448,94 @@ def _refined_extrema(t: np.ndarray, x: np.ndarray) -> tuple[float, float]:
         return float(x[k])
 
     return refine(int(np.argmax(x)), 1.0), refine(int(np.argmin(x)), -1.0)
+
+
+class _Extrema:
+    """Largest and smallest value of a variable or output over a sampled run, located on the flow.
+
+    Between two samples of one mode the state is the quintic Hermite interpolant of the samples'
+    states, derivatives (the vector field, slave variables from the differentiated constraints)
+    and second derivatives (a central difference of the derivatives along the flow): its error is
+    ``O(h^6 y^(6))``, at the level of rounding for a few hundred samples per period, where reading
+    the samples (or a parabola through them) errs by ``O(h^2 y'')``. The extremum is located on
+    that interpolant by a bounded scalar search on the two intervals around the extreme sample;
+    an extremum at a switch (a kink) is a sample itself (both sides of a switch are sampled).
+    """
+
+    def __init__(self, cs: CompiledSystem, tr: Trajectory):
+        self.cs, self.tr = cs, tr
+        self.mid = {name: k for k, name in enumerate(cs.mode_index)}
+        self._jets: dict[int, tuple] = {}
+        self._outputs = tr.outputs
+
+    def jet(self, k: int) -> tuple:
+        """``(y, y', y'')`` at sample ``k``."""
+        j = self._jets.get(k)
+        if j is None:
+            tr = self.tr
+            cm = self.cs.modes[self.cs.mode_index[str(tr.mode[k])]]
+            t, y = float(tr.t[k]), tr.y[k]
+            yp = cm.derivatives(t, y)
+            dt = 1e-5 * max(float(tr.t[-1] - tr.t[0]), 1e-300) / max(len(tr.t), 1)
+            ypp = (cm.derivatives(t + dt, y + dt * yp) - cm.derivatives(t - dt, y - dt * yp)) / (2 * dt)
+            j = self._jets[k] = (y, yp, ypp)
+        return j
+
+    def state(self, k: int, t: float) -> np.ndarray:
+        """Quintic Hermite state at ``t`` between samples ``k`` and ``k + 1``."""
+        t0, t1 = float(self.tr.t[k]), float(self.tr.t[k + 1])
+        h = t1 - t0
+        s = (t - t0) / h
+        y0, d0, e0 = self.jet(k)
+        y1, d1, e1 = self.jet(k + 1)
+        s2, s3, s4, s5 = s * s, s**3, s**4, s**5
+        h00 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+        h01 = 1 - h00
+        h10 = s - 6 * s3 + 8 * s4 - 3 * s5
+        h11 = -4 * s3 + 7 * s4 - 3 * s5
+        h20 = 0.5 * (s2 - 3 * s3 + 3 * s4 - s5)
+        h21 = 0.5 * (s3 - 2 * s4 + s5)
+        return h00 * y0 + h01 * y1 + h * (h10 * d0 + h11 * d1) + h * h * (h20 * e0 + h21 * e1)
+
+    def value(self, name: str, k: int, t: float) -> float:
+        y = self.state(k, t)
+        names = self.cs.system.variable_names
+        if name in names:
+            return float(y[names.index(name)])
+        cm = self.cs.modes[self.cs.mode_index[str(self.tr.mode[k])]]
+        return float(cm.outputs[name]([t, *y[: cm.n].tolist()]))
+
+    def smooth(self, k: int) -> bool:
+        """Samples ``k`` and ``k + 1`` lie in one mode, at distinct times (no switch between them)."""
+        tr = self.tr
+        return 0 <= k < len(tr.t) - 1 and tr.mode[k] == tr.mode[k + 1] and tr.t[k + 1] > tr.t[k]
+
+    def refine(self, name: str, x: np.ndarray, k: int, sgn: float) -> float:
+        best = float(x[k])
+        for a in (k - 1, k):
+            if not self.smooth(a):
+                continue
+            t0, t1 = float(self.tr.t[a]), float(self.tr.t[a + 1])
+            try:
+                r = minimize_scalar(
+                    lambda t, a=a: -sgn * self.value(name, a, t),
+                    bounds=(t0, t1),
+                    method="bounded",
+                    options={"xatol": 1e-10 * (t1 - t0)},
+                )
+            except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+                continue
+            v = -sgn * float(r.fun)
+            for tb in (t0, t1):  # the search does not evaluate its bounds
+                v = max(v, self.value(name, a, tb)) if sgn > 0 else min(v, self.value(name, a, tb))
+            best = max(best, v) if sgn > 0 else min(best, v)
+        return best
+
+    def extremes(self, name: str, x: np.ndarray) -> tuple[float, float]:
+        try:
+            return self.refine(name, x, int(np.argmax(x)), 1.0), self.refine(name, x, int(np.argmin(x)), -1.0)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):  # e.g. a slave solve failed
+            return _refined_extrema(self.tr.t, x)
 
 
 def _classify(
@@ -638,9 +832,21 @@ def newton(
     it = 0
     rephased = 0
     resonant = False  # I - M singular with the mismatch outside its range, at the last iteration
+    tr = None  # the run from y, when the line search already has it
+    J = None  # M_dd - I: exact after a monodromy, then Broyden-updated (None: recompute)
+    uphill = 0  # steps far from the orbit accepted without a decrease (reported)
+    stalled = False  # the exact Newton step vanishes while the residual does not
+    J_here = False  # J is the exact one at the current iterate
+    # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
+    # and its exact Newton steps reach rounding.
+    broyden = BROYDEN and shooter.options.integrator != "exact"
+    # Relative accuracy of one run of the map (the exact integrator's is rounding).
+    noise_rtol = shooter.options.rtol if shooter.options.integrator != "exact" else 1e-15
+    settle = False  # the residual met the tolerance and a further correction found no decrease
     while True:
         at[:] = [y, mode0, t0, it]
-        tr = shooter.run(y, mode0, t0)
+        if tr is None:
+            tr = shooter.run(y, mode0, t0)
         if not tr.success:
             return _failed(shooter, y, mode0, t0, it, res_norm, f"run failed at iteration {it}: {tr.message}")
         r = nw.residual(tr, y)
@@ -648,7 +854,15 @@ def newton(
         res_norm = float(np.max(np.abs(r))) / scale
         g = shooter.gauge(y)
         gauge_bad = family and g is not None and abs(g[0]) > tol * scale
-        if res_norm <= tol and not gauge_bad:
+        if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
+            # the exact integrator: judge the correction with the exact Jacobian here (cheap)
+            M = shooter.monodromy(tr)
+            J, J_here = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
+        if (
+            res_norm <= tol
+            and not gauge_bad
+            and (settle or _settled(J, r, tol, scale, rcond, noise_rtol, it, max_iter))
+        ):
             if tr.mode_final == mode0:
                 break
             if rephased < 3:  # converged onto a section at a switch: move the section
@@ -658,10 +872,11 @@ def newton(
                 t0, y, mode0 = t1, y1, m1
                 nw = _Newton(shooter, mode0)
                 d = nw.d
+                tr, J = None, None
                 continue
             note = "the mode at t0 + T differs from the section's mode; "
             break
-        if it >= max_iter:
+        if it >= max_iter or stalled:
             grows = scale > 1e3 * max(scale0, 1e-300)
             if grows:
                 why = "the response grows without bound: no bounded periodic orbit"
@@ -688,43 +903,158 @@ def newton(
                 f"(max |x| = {scale:.3g} after {it} Newton iterations)",
             )
         it += 1
-        M = shooter.monodromy(tr)
-        A = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
-        sv = np.linalg.svd(A, compute_uv=False)
-        family = is_family(sv)
-        rhs = -r
-        if family and g is not None:
-            gy = g[1][d]
-            A = np.vstack([A, gy])
-            rhs = np.concatenate([rhs, [-g[0]]])
-        step = np.linalg.lstsq(A, rhs, rcond=rcond)[0]
-        rn = float(np.linalg.norm(rhs))
-        resonant = bool(
-            sv[-1] <= 1e-6 * max(sv[0], 1e-300) and rn > 0 and np.linalg.norm(A @ step - rhs) > 0.5 * rn
-        )
-        # Backtracking on the residual (the map is only piecewise smooth).
-        lam = 1.0
-        for _ in range(6):
-            y_new = y.copy()
-            y_new[d] += lam * step
-            try:
-                y_new = nw.project(t0, y_new)
-            except Exception:
-                lam *= 0.5
-                continue
-            tr_new = shooter.run(y_new, mode0, t0)
-            if tr_new.success:
-                r_new = float(np.max(np.abs(nw.residual(tr_new, y_new)))) / _scale(y_new, d)
-                if r_new < res_norm or lam < 0.1 or res_norm > 0.1:
+        while True:  # a Newton direction, then an Armijo line search along it
+            exact = J is None or J_here
+            if J is None:
+                M = shooter.monodromy(tr)
+                J = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
+            J_here = False
+            sv = np.linalg.svd(J, compute_uv=False)
+            family = is_family(sv)
+            A = np.vstack([J, g[1][d]]) if (family and g is not None) else J
+            rhs = _rhs(r, g, family)
+            pinv = np.linalg.pinv(A, rcond=rcond)
+            step = pinv @ rhs
+            if exact:  # judged on the exact I - M only; once seen, kept for the diagnosis
+                rn = float(np.linalg.norm(rhs))
+                resonant = resonant or bool(
+                    (
+                        sv[-1] <= 1e-6 * max(sv[0], 1e-300)
+                        and rn > 0
+                        and np.linalg.norm(A @ step - rhs) > 0.5 * rn
+                    )
+                    # a Newton step thousands of times the state: I - M nearly singular, mismatch outside
+                    # its range (the line search then keeps the iterates from growing)
+                    or float(np.max(np.abs(step))) > 1e3 * max(scale, scale0)
+                )
+            # The linear model corrects almost none of the mismatch (it lies outside the range of
+            # the matrix): no progress is possible along Newton's step.
+            if float(np.linalg.norm(A @ step)) <= 1e-3 * float(np.linalg.norm(rhs)):
+                if exact:
+                    stalled = True  # the mismatch lies outside the range of I - M
                     break
-            lam *= 0.5
+                J = None
+                continue
+            found, best = _line_search(
+                shooter, nw, y, mode0, t0, step, pinv, family, float(np.linalg.norm(rhs))
+            )
+            if found is not None or exact:
+                break
+            J = None  # the updated Jacobian gave no descent: recompute it exactly at y
+        if stalled:
+            continue
+        if found is None and res_norm <= tol:
+            settle = True  # the correction asked for by _settled is below what the runs resolve
+            continue
+        if found is None:
+            if res_norm <= 0.1:
+                return _failed(
+                    shooter,
+                    y,
+                    mode0,
+                    t0,
+                    it,
+                    res_norm,
+                    "Newton's method found no decrease of the residual along its direction (the map is "
+                    f"not smooth here, or not accurate enough for the tolerance); {HINT} "
+                    f"({it} iterations, residual {res_norm:.3g})",
+                )
+            # Far from the orbit (a transient's guess): take the best point tried, uphill, and say so.
+            found = best
+            if found is None:
+                return _failed(
+                    shooter, y, mode0, t0, it, res_norm, f"every run along the Newton step failed ({HINT})"
+                )
+            uphill += 1
+        y_new, tr, lam = found
+        # Broyden's update of J from the step taken (exact again whenever the line search cut it).
+        r_new = nw.residual(tr, y_new)
+        s_d = y_new[d] - y[d]
+        ss = float(s_d @ s_d)
+        if lam == 1.0 and ss > 0 and not family and broyden:
+            J = J + np.outer((r_new - r) - J @ s_d, s_d) / ss
+        else:
+            J = None
         y = y_new
+    if uphill:
+        note += f"{uphill} Newton step(s) far from the orbit accepted without a decrease of the residual; "
     at[:] = [y, mode0, t0, it]
     return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note)
 
 
+def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int, max_iter: int) -> bool:
+    """A residual below the tolerance is not yet an accurate state when ``I - M`` is ill-conditioned:
+    with a Jacobian at hand, the Newton correction it gives must be below the tolerance too (or at
+    the noise level of the map, ``10 cond x rtol``, relative to ``scale``), else one more step is
+    taken (Broyden's iterates stop earlier than quadratic ones would)."""
+    if J is None or it >= max_iter:
+        return True
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not sv.size or sv[0] == 0.0:
+        return True
+    corr = np.linalg.lstsq(J, -r, rcond=rcond)[0]
+    noise = 10.0 * sv[0] / max(sv[-1], rcond * sv[0]) * rtol
+    return float(np.max(np.abs(corr))) <= max(tol, noise) * scale
+
+
+#: Broyden's updates of I - M between exact monodromies on the IDA path (False: exact Newton).
+BROYDEN = True
+#: Armijo's sufficient-decrease constant.
+ARMIJO = 1e-4
+#: Step halvings of the line search.
+MAX_BACKTRACKS = 8
+
+
+def _rhs(r: np.ndarray, g, family: bool) -> np.ndarray:
+    """Right-hand side of the Newton system: ``-r``, and ``-gauge`` on a family with a gauge."""
+    return np.concatenate([-r, [-g[0]]]) if (family and g is not None) else -r
+
+
+def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0):
+    """Armijo backtracking along the Newton step ``step = pinv @ rhs(y)``.
+
+    The first ``lam = 1, 1/2, ...`` is taken where the residual norm ``|rhs|`` decreases
+    sufficiently, ``|rhs(y + lam step)| <= (1 - c lam) res0`` (``res0 = |rhs(y)|``), or the
+    residual in Newton's natural norm does, ``|pinv @ rhs(y + lam step)| <= (1 - c lam) |step|``
+    (``pinv``: the pseudo-inverse of the iteration's own matrix). The natural norm is invariant
+    under a rescaling of the equations: far from a weakly damped orbit the plain residual of a
+    nearly singular ``I - M`` decreases only along steps thousands of times shorter than
+    Newton's; near the orbit it is the plain residual that is reliable (the natural norm
+    amplifies the integration noise by ``cond(I - M)``).
+
+    Returns ``(found, best)``: ``found = (y_new, run, lam)`` or None (the run is kept for the
+    next iteration: nothing is integrated twice); without one, ``best`` is the tried point of
+    least merit in the same form (for a step far from the orbit, reported by the caller), or None.
+    """
+    d = nw.d
+    phi0 = float(np.linalg.norm(step))
+    lam = 1.0
+    best = None
+    for _ in range(MAX_BACKTRACKS):
+        y_new = y.copy()
+        y_new[d] += lam * step
+        try:
+            y_new = nw.project(t0, y_new)
+        except Exception:  # AlgebraicSolveError: no consistent point there
+            lam *= 0.5
+            continue
+        tr = shooter.run(y_new, mode0, t0)
+        if tr.success and np.all(np.isfinite(tr.y_final)):
+            rhs = _rhs(nw.residual(tr, y_new), shooter.gauge(y_new), family)
+            phi = float(np.linalg.norm(pinv @ rhs))
+            if (
+                phi <= (1.0 - ARMIJO * lam) * phi0
+                or float(np.linalg.norm(rhs)) <= (1.0 - ARMIJO * lam) * res0
+            ):
+                return (y_new, tr, lam), None
+            if best is None or phi < best[0]:
+                best = (phi, y_new, tr, lam)
+        lam *= 0.5
+    return None, (best[1:] if best is not None else None)
+
+
 def _choose_section_period(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
-    t, y, m = _choose_section(tr, T)
+    t, y, m = _choose_section(_sampled(tr), T)
     return t - math.floor(t / T) * T, y, m
 
 
@@ -732,8 +1062,7 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     """Build the orbit from its section state (``tr``, ``M``: its sampled run and monodromy, if known)."""
     sys_ = shooter.system
     names = shooter.names
-    if tr is None:
-        tr = shooter.run(y, mode0, t0, samples=samples)
+    tr = shooter._run(y, mode0, t0, samples) if tr is None else _sampled(tr)
     if M is None:
         M = shooter.monodromy(tr)
     s = shooter.s
@@ -755,12 +1084,13 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     n_struct = ns - min(nd[m] for m in visited)
     mtol = max(1e-6, 100.0 * shooter.options.rtol)
     mult, kinds, verdict = _classify(mult, n_struct, family, mtol)
-    # Amplitudes (variables and outputs).
+    # Amplitudes (variables and outputs): extrema located on the flow, not read from samples.
     amp, hpp = {}, {}
+    ext = _Extrema(shooter.cs, tr)
     series = {n: tr.y[:, i] for i, n in enumerate(names) if n not in sys_.quadratures}
     series.update({o: tr.outputs[o] for o in sys_.outputs})
     for n, x in series.items():
-        hi, lo = _refined_extrema(tr.t, x)
+        hi, lo = ext.extremes(n, x)
         amp[n] = max(abs(hi), abs(lo))
         hpp[n] = 0.5 * (hi - lo)
     ivs = tr.mode_intervals()

@@ -46,6 +46,8 @@ RESOLVED_STEPS = 1e6
 MIN_STEP = 1e-100
 #: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
 CAREFUL_FIRST_STEP = 1e-6
+#: IDA solvers kept per compiled system (by mode, settings and first step).
+MAX_SHARED_SOLVERS = 64
 
 
 class SimulationError(RuntimeError):
@@ -442,6 +444,11 @@ class _Run:
 
     # ------------------------------------------------------------------
     def solver(self, mode: int, careful: bool = False) -> ModeSolver:
+        """The mode's solver (``careful``: with a tiny first step).
+
+        IDA solvers are kept on the compiled system per mode and settings, and reused by later
+        runs (building one costs about 2 ms).
+        """
         store = self.careful if careful else self.solvers
         s = store.get(mode)
         if s is None and self.opt.integrator == "exact":
@@ -453,14 +460,22 @@ class _Run:
             # zero makes IDA stall in step-size cycles (tests/hybrid: nonlinear_dae).
             atol = self.atol.copy()
             atol[cm.alg_idx] = np.maximum(atol[cm.alg_idx], self.opt.rtol)
-            s = ModeSolver(
-                cm,
-                rtol=self.opt.rtol,
-                atol=atol,
-                max_step=self.max_step,
-                max_num_steps=min(self.opt.max_num_steps, self.opt.max_steps),
-                first_step=CAREFUL_FIRST_STEP * self.max_step if careful else 0.0,
-            )
+            h0 = CAREFUL_FIRST_STEP * self.max_step if careful else 0.0
+            max_num_steps = min(self.opt.max_num_steps, self.opt.max_steps)
+            shared = self.cs.__dict__.setdefault("_ida_solvers", {})
+            skey = (mode, h0, self.opt.rtol, atol.tobytes(), self.max_step, max_num_steps)
+            s = shared.get(skey)
+            if s is None:
+                if len(shared) >= MAX_SHARED_SOLVERS:
+                    shared.clear()
+                s = shared[skey] = ModeSolver(
+                    cm,
+                    rtol=self.opt.rtol,
+                    atol=atol,
+                    max_step=self.max_step,
+                    max_num_steps=max_num_steps,
+                    first_step=h0,
+                )
             store[mode] = s
         return s
 

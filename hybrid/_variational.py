@@ -77,7 +77,7 @@ class _ResetJacobians:
             slots = mode._slots
             rows = []
             for i, e in g.reset_expr:
-                ns = mode._shared
+                ns = mode._ns
                 grads = tuple(compile_scalar(diff(e, nm), slots, {}, ns) for nm in mode.names)
                 rows.append((i, grads, compile_scalar(diff(e, "t"), slots, {}, ns)))
             self._cache[key] = tuple(rows)
