@@ -342,7 +342,6 @@ class CompiledMode:
         return taylor_eval(self.guards[k].expr, self._env(tj, X))
 
 
-
 class CompiledSystem:
     """All modes of a system compiled for one parameter set.
 

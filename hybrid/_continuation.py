@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
@@ -154,15 +155,46 @@ def forcing_parameter(system: HybridSystem) -> str:
 
 
 # ----------------------------------------------------------------------
-@dataclass
+class _Summary:
+    """What a located mode change needs of an orbit not finished yet: its run (events, mode
+    intervals) and the time fraction of each mode."""
+
+    def __init__(self, tr, period: float):
+        self.trajectory = tr
+        fr: dict[str, float] = {}
+        for a, b, m in tr.mode_intervals():
+            fr[m] = fr.get(m, 0.0) + (b - a) / period
+        self.mode_fractions = fr
+
+
 class _Point:
-    y: np.ndarray  # full state at the section
-    p: float
-    mode: str
-    phi: float  # section phase (fraction of the period)
-    tangent: np.ndarray | None = None  # scaled (y_d, p)
-    orbit: PeriodicOrbit | None = None
-    iterations: int = 0
+    """A point of the branch: section state, parameter, section mode and phase; its orbit (made on
+    first use where the corrector was asked for a light point) and tangent."""
+
+    def __init__(self, y, p, mode, phi, tangent=None, orbit=None, iterations=0):
+        self.y = y  # full state at the section
+        self.p = float(p)
+        self.mode = mode
+        self.phi = phi  # section phase (fraction of the period)
+        self.tangent = tangent  # scaled (y_d, p)
+        self._orbit = orbit
+        self.iterations = iterations
+        self.make = None  # builds the orbit of a light point
+        self.summary = None  # _Summary of a light point
+
+    @property
+    def orbit(self) -> PeriodicOrbit | None:
+        if self._orbit is None and self.make is not None:
+            self._orbit, self.make = self.make(), None
+        return self._orbit
+
+    @orbit.setter
+    def orbit(self, o) -> None:
+        self._orbit = o
+
+    def view(self):
+        """The orbit if made, else the light summary (for signatures and mode fractions)."""
+        return self._orbit if self._orbit is not None or self.summary is None else self.summary
 
 
 class _Continuer:
@@ -195,10 +227,14 @@ class _Continuer:
             rhs = np.concatenate([rhs, [-g[0]]])
         return A, rhs, family
 
-    def correct(self, pt: _Point, ds: float, samples: int, force_gauge: bool = False) -> _Point:
+    def correct(
+        self, pt: _Point, ds: float, samples: int, force_gauge: bool = False, light: bool = False
+    ) -> _Point:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
-        Returns the converged point with its orbit and tangent (from the orbit's own Jacobian).
+        Returns the converged point with its orbit and tangent (from the orbit's own Jacobian);
+        ``light``: without them (no sampled run, no amplitudes) until its ``orbit`` is asked for
+        (e.g. the probes that locate a mode change, of which only one is kept).
         Damped Newton: an iterate whose residual is larger than the last one's is replaced by a
         shorter step (down to 1/16); if none decreases the residual the step fails (a worse
         iterate is never kept). Converged: residual below ``tol`` and the scaled update below
@@ -258,8 +294,14 @@ class _Continuer:
                 if tr.mode_final != pt.mode:
                     raise _Fail("section reached a switch")
                 new = _Point(y, p, pt.mode, pt.phi, iterations=it)
-                new.orbit = _finish(self.sh, nw, y, pt.mode, t0, it, res, self.tol, samples, "", tr=tr, M=M)
                 new.tangent = self.null_vector(A, D, tau)
+                if light:
+                    new.summary = _Summary(tr, T)
+                    new.make = partial(self.complete, new, nw, t0, it, res, samples, M)
+                else:
+                    new.orbit = _finish(
+                        self.sh, nw, y, pt.mode, t0, it, res, self.tol, samples, "", tr=tr, M=M
+                    )
                 return new
             if it == max_iter:
                 break
@@ -269,6 +311,12 @@ class _Continuer:
             y[d] += delta[:-1]
             p = float(p + delta[-1])
         raise _Fail(f"corrector did not converge in {max_iter} iterations near {self.parameter}={p:.8g}")
+
+    def complete(self, pt: _Point, nw, t0: float, it: int, res: float, samples: int, M) -> PeriodicOrbit:
+        """The orbit of a light point: its sampled run and amplitudes (the monodromy ``M`` is known)."""
+        self.at(pt.p)
+        tr = self.sh.run(pt.y, pt.mode, t0, samples=samples)
+        return _finish(self.sh, nw, pt.y, pt.mode, t0, it, res, self.tol, samples, "", tr=tr, M=M)
 
     def jacobian(self, tr, y, p, mode, phi, nw):
         """``(dP/dy_d - I, dP/dp, M)`` at a run ``tr`` from ``(y, p)``."""
@@ -477,16 +525,17 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             new = c.correct(pt, ds_cur, samples)
         except (_Fail, *_FAILURES) as exc:
             grow = "grows without bound" in str(exc)
+            # A switch moved onto the section: move the section (once per point) to the middle of
+            # the longest mode interval, and retry the same step.
+            if "switch" in str(exc) and not rephased:
+                moved = _rephase(c, pt, direction)
+                if moved is not None:
+                    pt, rephased = moved, True
+                    continue
             if ds_cur / 4.0 >= st.ds_min and fails < st.max_failures:
                 ds_cur /= 4.0
                 fails += 1
                 continue
-            # The section may sit at a switch now: move it once before giving up.
-            if "switch" in str(exc) and not rephased:
-                moved = _rephase(c, pt, direction)
-                if moved is not None:
-                    pt, ds_cur, rephased = moved, st.ds, True
-                    continue
             if grow:
                 _unbounded(c, branch, pt, None, str(exc))
             else:
@@ -556,8 +605,12 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
         if progress is not None:
             done = max(done, min(1.0, max(0.0, (new.p - a) / (b - a))))
             progress(done)
-        # Step control: aim at 3 corrector iterations.
+        # Step control: aim at 3 corrector iterations, and at most max_angle of turn per step.
         factor = {0: 2.0, 1: 2.0, 2: 1.4, 3: 1.0}.get(new.iterations, 0.6)
+        if not rephased and new.tangent is not None and pt.tangent is not None:
+            turn = math.acos(min(1.0, abs(float(new.tangent @ pt.tangent))))
+            if turn > 0:
+                factor = min(factor, max(0.25, st.max_angle / turn))
         ds_cur = min(st.ds_max, max(st.ds_min, ds_cur * factor))
         pt, rephased = new, False
         if (new.p - b) * direction > 0 or (new.p - a) * direction < 0:
@@ -591,6 +644,8 @@ def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:
     o = pt.orbit
     t, y, m = _choose_section_period(c.sh.run(o.x0, o.mode0, o.t0, samples=256), c.sh.period)
     new = _Point(y, pt.p, m, t / c.sh.period, orbit=o)
+    if pt.tangent is not None and pt.tangent[-1] != 0.0:
+        direction = float(np.sign(pt.tangent[-1]))  # keep the branch's sense, also past a fold
     try:
         new.tangent = c.tangent(new, None, direction)
     except Exception:

@@ -155,6 +155,10 @@ class ContinuationOptions:
         level of the map, ``10 cond rtol``, whichever is larger) and the residual below ``tol``.
     max_iter : int
         Corrector iterations per step.
+    max_angle : float
+        Largest turn [rad] of the branch's tangent (in scaled coordinates) from one point to the
+        next: a sharper turn shrinks the next step, so that the curve is resolved where it bends
+        (e.g. at a resonance peak), not only where the corrector needs it.
     locate : bool
         Locate special points (else they are reported ``bracketed`` by the step).
     locate_tol : float
@@ -180,6 +184,7 @@ class ContinuationOptions:
     tol: float = 1e-9
     step_tol: float = 1e-7
     max_iter: int = 8
+    max_angle: float = 0.1
     locate: bool = True
     locate_tol: float = 1e-10
     locate_max_iter: int = 40
@@ -189,7 +194,7 @@ class ContinuationOptions:
     samples_per_period: int = 256
 
     def __post_init__(self):
-        for name in ("ds", "ds_min", "ds_max", "tol", "step_tol", "locate_tol", "max_growth"):
+        for name in ("ds", "ds_min", "ds_max", "tol", "step_tol", "locate_tol", "max_growth", "max_angle"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"ContinuationOptions: `{name}` must be a number > 0, got {v!r}")

@@ -344,15 +344,13 @@ class Shooter:
             and all(v == cs.params[k] for k, v in self.params.items() if k not in cs.runtime)
         ):
             cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
-        elif self.free is None and self.options.integrator == "exact":
+        elif self.options.integrator == "exact":
             # every parameter read at call time: the exact flows come from the affine analysis
             self.cs = CompiledSystem.borrow(self.system, self.params, self)
         else:
-            # The free parameter is read at run time (set_runtime), except by the exact integrator.
-            runtime = (self.free,) if self.free is not None and self.options.integrator != "exact" else ()
-            self.cs = compiled(
-                self.system, self.params, runtime, reuse_runtime=self.options.integrator != "exact"
-            )
+            # The free parameter is read at run time (set_runtime).
+            runtime = (self.free,) if self.free is not None else ()
+            self.cs = compiled(self.system, self.params, runtime)
         self.period = self.cs.period
         if self.period is None:
             raise ValueError(
@@ -511,6 +509,59 @@ class _Extrema:
         return 0 <= k < len(tr.t) - 1 and tr.mode[k] == tr.mode[k + 1] and tr.t[k + 1] > tr.t[k]
 
     def refine(self, name: str, x: np.ndarray, k: int, sgn: float) -> float:
+        """The extremum (``sgn`` 1: max, -1: min) next to sample ``k`` on the interpolant: Newton's
+        method on its derivative (finite differences of the interpolant, a few evaluations), or a
+        bounded scalar search on each side of ``k`` where Newton does not settle."""
+        v = self._newton(name, x, k, sgn)
+        return v if v is not None else self._search(name, x, k, sgn)
+
+    def _newton(self, name: str, x: np.ndarray, k: int, sgn: float) -> float | None:
+        t = self.tr.t
+        left, right = self.smooth(k - 1), self.smooth(k)
+        if not (left or right):
+            return float(x[k])  # between two switches: the sample is the extremum (a kink)
+        lo = float(t[k - 1]) if left else float(t[k])
+        hi = float(t[k + 1]) if right else float(t[k])
+        h = hi - lo if not (left and right) else min(float(t[k]) - lo, hi - float(t[k]))
+        tc = float(t[k])
+        if left and right:  # start at the vertex of the parabola through the three samples
+            d01 = (x[k] - x[k - 1]) / (t[k] - lo)
+            c = ((x[k + 1] - x[k]) / (hi - t[k]) - d01) / (hi - lo)
+            if sgn * c < 0:
+                tc = min(max(float(0.5 * (lo + t[k]) - d01 / (2.0 * c)), lo), hi)
+        delta = 1e-4 * h
+        xk = float(x[k])
+
+        def f(tt: float) -> float:
+            tt = min(max(tt, lo), hi)
+            return self.value(name, k - 1 if (tt < t[k] or not right) else k, tt)
+
+        for _ in range(8):
+            a, b = max(tc - delta, lo), min(tc + delta, hi)
+            fm, f0, fp = f(a), f(0.5 * (a + b)), f(b)
+            tc = 0.5 * (a + b)
+            dd = 0.5 * (b - a)
+            if max(abs(fm - xk), abs(f0 - xk), abs(fp - xk)) <= 1e-12 * max(abs(xk), 1e-300):
+                return xk  # flat at rounding level (e.g. a constant force while slipping)
+            d2 = (fp - 2.0 * f0 + fm) / (dd * dd)
+            if not sgn * d2 < 0:
+                return None
+            step = -(fp - fm) / (2.0 * dd) / d2
+            if tc + step < lo or tc + step > hi:
+                if left and right:
+                    return None
+                # concave towards the switch: the extremum on this side is at the switch (a sample)
+                edge = lo if tc + step < lo else hi
+                if edge == float(t[k]):
+                    return xk
+                return None
+            tc += step
+            if abs(step) <= 1e-6 * h:
+                v = f(tc)
+                return max(xk, v) if sgn > 0 else min(xk, v)
+        return None
+
+    def _search(self, name: str, x: np.ndarray, k: int, sgn: float) -> float:
         best = float(x[k])
         for a in (k - 1, k):
             if not self.smooth(a):

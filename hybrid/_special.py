@@ -234,13 +234,13 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     signature itself flips a little early: a phase shorter than the switches' noise level is
     not resolved.)
     """
-    sig_a, sig_b = signature(a.orbit), signature(b.orbit)
+    sig_a, sig_b = signature(a.view()), signature(b.view())
     changed = sig_a[1] ^ sig_b[1]
     samples = settings.samples_per_period
     lo, hi = (0.0, a), (ds, b)  # (s, point): lo has a's signature, hi does not
-    with_lo = bool(changed) and _fraction(a.orbit, changed) > 0
+    with_lo = bool(changed) and _fraction(a.view(), changed) > 0
     first = a if with_lo else b
-    hist = [(0.0 if with_lo else ds, _fraction(first.orbit, changed), first.p, first)] if changed else []
+    hist = [(0.0 if with_lo else ds, _fraction(first.view(), changed), first.p, first)] if changed else []
     toward = 1.0 if with_lo else -1.0  # from the side with the modes towards the side without
     slope = (b.p - a.p) / ds if ds > 0 else 0.0
     eps = 0.25 * tol_p / max(abs(slope), 1e-300)  # tol_p in arclength
@@ -248,7 +248,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     def past():
         """The orbit reported at the point: the first past it with ``b``'s signature (else ``b``;
         an orbit in between, e.g. one phase of two left, is not the branch's)."""
-        return hi[1] if signature(hi[1].orbit) == sig_b else b
+        return hi[1] if signature(hi[1].view()) == sig_b else b
 
     root_prev, fresh = None, False  # fresh: the last probe gave the secant a new point
     for _ in range(settings.locate_max_iter):
@@ -274,14 +274,14 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
             if lo[0] < guess < hi[0]:
                 s = guess
         try:
-            pt = c.correct(a, s, samples)
+            pt = c.correct(a, s, samples, light=True)
         except fail_types as exc:
             return _Located(hi[1], "bracketed", 0.5 * (p_lo + p_hi), (p_lo, p_hi), f"corrector failed: {exc}")
-        if signature(pt.orbit) == sig_a:
+        if signature(pt.view()) == sig_a:
             lo = (s, pt)
         else:
             hi = (s, pt)
-        f = _fraction(pt.orbit, changed) if changed else 0.0
+        f = _fraction(pt.view(), changed) if changed else 0.0
         fresh = bool(changed) and f > 0
         if fresh:
             hist.append((s, f, pt.p, pt))
