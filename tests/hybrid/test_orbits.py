@@ -258,7 +258,7 @@ def test_duffing_continuation_locates_both_folds(duffing, duffing_branch):
     assert len(folds) == 2
     # Upper fold first (the resonant branch turns back), then the lower one.
     # The reference band is right to ~1e-12. This branch runs IDA at rtol 1e-9, which moves the zero
-    # of the fold's test function by ~1e-8 (measured 1.4e-8 and 3e-10): 1e-7. The 1e-8 at the
+    # of the fold's test function by ~1e-8 (measured 1.4e-8 and 4.4e-10): 1e-7. The 1e-8 at the
     # default tolerances is tests/hybrid/test_continuation.py::test_duffing_folds_located_to_1e8.
     assert abs(folds[0].parameter - ref.band[1]) <= 1e-7
     assert abs(folds[1].parameter - ref.band[0]) <= 1e-7
@@ -267,9 +267,9 @@ def test_duffing_continuation_locates_both_folds(duffing, duffing_branch):
     # the branch the state is smooth in the arclength s and W - W_fold ~ -a s^2, so an error dW of the
     # located frequency moves the state by at most ~sqrt(dW/a) (1e-5 for dW = 1e-10), and the orbit at
     # a *given* W is right to the IDA tolerance (rtol 1e-9) times cond(I - M) (~1e3 off the fold): hence
-    # 1e-6 of |x0| for the section state and the amplitude (measured 1.6e-7 and 6e-8). One multiplier
+    # 1e-6 of |x0| for the section state and the amplitude (measured 3.1e-7 and 1.2e-7). One multiplier
     # is 1 at a fold and the other exp(-c T/m) (Liouville, T = 2 pi/W_fold): both to 1e-6 (measured
-    # 1e-7 and 7e-8). The old checks here (1e-3, and the reported point's Omega compared with the special
+    # 2.2e-7 and 1.5e-7). The old checks here (1e-3, and the reported point's Omega compared with the special
     # point's own parameter, equal by construction) could not fail on a wrong fold orbit.
     m, c = duffing[1]["m"], duffing[1]["c"]
     for s, fold in zip(folds, (ref.folds[1], ref.folds[0]), strict=True):
