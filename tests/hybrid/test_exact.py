@@ -164,7 +164,8 @@ BRANCHES = [
 @pytest.mark.parametrize(("name", "preset", "omegas"), BRANCHES, ids=[b[0] for b in BRANCHES])
 def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     """Exact orbits followed along a branch (each from its neighbour) against IDA at rtol 1e-12 from the
-    same section: amplitudes to 1e-7 relative, multipliers to 1e-6 (measured: 2.3e-8 and 3.8e-10)."""
+    same section: amplitudes to 1e-7 relative, multipliers to 1e-6, switch times to 1e-8 of the period
+    (measured: 2.2e-8, 7.1e-10 and 2.2e-8 s = 3e-9 T, the largest at the branch's first point, 0.8532)."""
     from hybrid import SolverOptions, periodic_orbit
 
     system = getattr(models, name)()
@@ -192,6 +193,9 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
             assert abs(ex.amplitude[k] - v) <= 1e-7 * max(abs(v), 1e-3 * scale), (om, k)
         mu_ref = np.sort_complex(ref.multipliers)
         assert np.max(np.abs(np.sort_complex(ex.multipliers) - mu_ref)) <= 1e-6, om
+        # Switch times, a state error dx moving a switch by dx/|dh/dt|: 1e-8 of the period.
+        dts = np.abs(np.asarray(ex.switch_times) - np.asarray(ref.switch_times))
+        assert dts.max() <= 1e-8 * ex.period, (om, dts.max())
         prev = ex
 
 

@@ -18,8 +18,9 @@ Measured at the defaults (nu = 1e-5 m/s, rtol = 1e-10, fd_step = 1e-5), relative
 * absorber stick-slip from a guess 10 % off: 4 corrections, 55 solves (~1 s); orbit 3.6e-7
   (section in slip, t0 = 0) and 4.1e-7 (section in stick) off the event-driven one, multipliers
   within 3.5e-6 and 1.9e-5 (the latter is the ~0 one); cond(I - M) 1.8e3 and 2.1e3;
-* isolator stick-slip from 10 % off: 3 corrections, 44 solves; orbit 2.0e-7 off, multipliers
-  within 1.6e-6.
+* isolator stick-slip from the grazing stick orbit (A_L, Eq. 9): 10 corrections, 121 solves; at a
+  section in the middle of its longest stick phase the orbit is 3.3e-7 off the event-driven one,
+  multipliers within 2.7e-6.
 
 The stick-slip tolerances (2e-6 state, 1e-4 multipliers) leave a margin of 5 or more and still
 catch forward differences, whose multipliers are 7e-2 off when the section cuts a slip phase.
@@ -36,7 +37,7 @@ from scipy.linalg import expm
 import models
 from hybrid import periodic_orbit
 from models.karnopp import KarnoppOrbit, shoot_karnopp, simulate_karnopp
-from models.linear import stick_amplitudes, stick_eigenfrequencies, stick_response
+from models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies, stick_response
 
 NAMES = ("x1", "v1", "x2", "v2", "u")
 PARAMS = {"absorber": models.absorber().preset("standard"), "isolator": models.isolator().preset("standard")}
@@ -187,15 +188,45 @@ def test_absorber_stick_slip_section_in_stick(absorber_exact):
 
 
 def test_isolator_stick_slip():
+    """Section in a stick phase, found without the engine: the paper's shooting on the Karnopp model
+    from the grazing stick orbit (the App. A response scaled to the structural-change limit A_L of
+    Eq. 9, where |H| just reaches R), then the middle of the longest stick phase of that Karnopp orbit
+    (sticking as the Karnopp model reports it, on a grid of T/2000). The engine's orbit at that
+    section, started from the Karnopp state there, must agree with the Karnopp orbit at the section
+    (state within 2e-6 of the scale, measured 3.3e-7; the Karnopp band nu = 1e-5 m/s limits the agreement,
+    tests/models/test_karnopp_convergence.py) and in its multipliers, which do not depend on the section
+    (1e-4 as check_against_exact; measured 2.7e-6). Until issue 7 this test started from a section and
+    a state copied from the engine's own output.
+    """
     system = models.isolator()
     p = system.preset("standard")
-    t0 = 1.7818605873332043  # the section the event-driven shooting chose (stick phase)
-    guess = dict(zip(NAMES, [-1.7103991, 1.5904362, -6.3172768, 5.8737089, -0.0101758], strict=True))
+    T = 2 * math.pi / p["Omega"]
+    grazing = stick_response("isolator", p, [0.0])[0] * float(
+        limit_amplitude("isolator", p) / abs(stick_amplitudes(p)[0])
+    )
+    first = shoot_karnopp("isolator", p, grazing)
+    assert first.converged and first.iterations <= 12, first.message  # measured 10
+    t = np.linspace(0.0, T, 2001)
+    run = simulate_karnopp("isolator", p, (0.0, T), first.y0, nu=first.nu, rtol=1e-10, atol=1e-12, t_eval=t)
+    stick = run.sticking.astype(int)
+    assert stick.any() and not stick.all()
+    # longest run of sticking samples, the period being cyclic (roll so that index 0 slips)
+    shift = int(np.flatnonzero(stick == 0)[0])
+    rolled = np.roll(stick[:-1], -shift)
+    edges = np.flatnonzero(np.diff(np.r_[0, rolled, 0]))
+    starts, ends = edges[::2], edges[1::2]
+    k = int(np.argmax(ends - starts))
+    i0 = (shift + (starts[k] + ends[k]) // 2) % (len(t) - 1)
+    t0 = float(t[i0])
+    guess = dict(zip(NAMES, run.y[i0, :5], strict=True))
     exact = periodic_orbit(system, p, guess, "stick", t0=t0, transient_periods=0)
-    assert exact.converged, exact.message
-    orbit = shoot_karnopp("isolator", p, 0.9 * np.asarray(exact.x0[:5]), t0=t0)
-    assert orbit.iterations <= 8  # measured 3
-    check_against_exact(orbit, exact, state_tol=2e-6, mu_tol=1e-4)
+    assert exact.converged and exact.mode0 == "stick", exact.message
+    assert exact.t0 == t0
+    x_exact = np.asarray(exact.x0[:5])
+    assert np.abs(run.y[i0, :5] - x_exact).max() <= 2e-6 * np.abs(x_exact).max()
+    assert np.abs(run.y[-1, :5] - first.y0).max() <= 1e-8 * np.abs(first.y0).max()  # the run closes
+    assert matched(first.multipliers, np.asarray(exact.multipliers)) <= 1e-4
+    assert first.residual <= 1e-9 and 0.99 < abs(first.multipliers[0]) < 1.0
 
 
 def test_non_convergence_is_returned_as_data():
