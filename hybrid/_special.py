@@ -53,7 +53,11 @@ class SpecialPoint:
         caller asked for (``ContinuationOptions.locate_tol``); ``"bracketed"``: the point lies
         in ``interval`` and was not located to the tolerance (``description`` says why).
     accuracy : float
-        Bound on the error of ``parameter`` (for ``bracketed``, half the interval's width).
+        Bound on the error of ``parameter`` as a root of the *computed* test function (for
+        ``bracketed``, half the interval's width). The computed function carries the runs'
+        integration error, which moves its root further: e.g. a Duffing fold located to 5e-15 at
+        rtol 1e-9 lies 1.4e-8 from the exact fold; the exact integrator or a tighter ``rtol``
+        removes that part.
     interval : tuple of float
         Parameter values that bracket the point.
     """
@@ -153,6 +157,10 @@ class _Located:
         self.note = note
 
 
+#: A located fold's last two probes lie within this fraction of the step in arclength.
+FOLD_ARCLENGTH_TOL = 1e-7
+
+
 def _value(kind: str, pt, a) -> float:
     """Smooth test function of ``kind`` at ``pt`` (sign relative to ``a`` is not applied)."""
     if kind == "fold":
@@ -181,6 +189,7 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
     g_lo, g_hi = _value(kind, a, a), _value(kind, b, a)
     p_lo, p_hi = a.p, b.p
     best, side = None, 0
+    s_prev = math.inf
     samples = settings.samples_per_period
     for _ in range(settings.locate_max_iter):
         if not (math.isfinite(g_lo) and math.isfinite(g_hi)) or g_lo * g_hi > 0:
@@ -211,10 +220,15 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             side = 1
         # Accuracy in the parameter: the bracket's width (a fold's parameter is extremal in the
         # bracket, so its distance to the best point is bounded by the change of the last step).
+        # At a fold the parameter is quadratic in the arclength: its tolerance is met long before
+        # the orbit (the state, the multiplier 1) is, so the arclength must settle too.
         err = abs(p_hi - p_lo)
+        settled = True
         if kind == "fold" and p_prev is not None:
             err = min(err, abs(pt.p - p_prev))
-        if err <= tol_p or s_hi - s_lo <= 1e-14 * ds:
+            settled = abs(s - s_prev) <= FOLD_ARCLENGTH_TOL * ds
+        s_prev = s
+        if (err <= tol_p and settled) or s_hi - s_lo <= 1e-14 * ds:
             out = _Located(pt, "located", pt.p, (p_lo, p_hi))
             out.accuracy = err
             return out
