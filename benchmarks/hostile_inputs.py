@@ -86,7 +86,7 @@ CASES: list[tuple[str, dict, list[str], list[str]]] = [
     ("--omega 1e308", {}, ["hybrid", "simulate", "absorber", "--omega", "1e308", "--no-plot"], []),
     ("symlink to /dev/zero", {"z.toml": "->/dev/zero"}, ["hybrid", "simulate", "z.toml"], []),
     ("UTF-8 BOM", {"m.toml": "\ufeff" + COULOMB}, ["hybrid", "simulate", "m.toml", "--preset", "forced", "--periods", "1", "--no-plot"], []),
-    ("stick_modes = 5", {"m.toml": _coulomb(**{'stick_modes = ["stick"]': "stick_modes = 5"})}, ["hybrid", "simulate", "m.toml"], []),
+    ("removed key stick_modes", {"m.toml": _coulomb(**{'gauge = "': 'stick_modes = 5\ngauge = "'})}, ["hybrid", "simulate", "m.toml"], []),
     ("definitions nest too deeply (100-level chain)", {"m.toml": _definitions("".join(f'c{k} = "{"x" if k == 0 else f"c{k - 1} + 0*x"}"\n' for k in range(100)))}, ["hybrid", "simulate", "m.toml", "--preset", "forced", "--periods", "1", "--no-plot"], []),
     ("variable name with a newline", {"m.toml": _coulomb(**{"[variables.x]": '[variables."x\\n"]'})}, ["hybrid", "simulate", "m.toml"], []),
     ("unknown [plot] key", {"m.toml": _coulomb(**{'force = "friction"': 'forse = "friction"'})}, ["hybrid", "simulate", "m.toml"], []),

@@ -120,13 +120,14 @@ def orbit_row(parameter: str, o: PeriodicOrbit) -> dict:
         parameter: o.params[parameter],
         "stability": o.stability,
         "transitions_per_period": o.transitions_per_period,
-        "stick_fraction": o.stick_fraction,
         "mode_sequence": " ".join(o.mode_sequence),
         "max_abs_multiplier": float(np.max(np.abs(o.floquet_multipliers)))
         if o.floquet_multipliers.size
         else float("nan"),
         "residual": o.residual,
     }
+    for m in o.system.mode_names:  # every mode, so that all rows have the same columns
+        row[f"fraction_{m}"] = o.mode_fractions.get(m, 0.0)
     for n, v in o.amplitude.items():
         row[f"amplitude_{n}"] = v
     for n, v in o.half_peak_to_peak.items():

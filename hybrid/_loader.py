@@ -48,7 +48,6 @@ Layout of a model file::
 
     [orbit]                      # optional: periodic-orbit hints
     gauge = "x2 - u"             # picks the member of a neutral family (gauge = 0)
-    stick_modes = ["stick"]      # modes counted in the stick fraction
 """
 
 from __future__ import annotations

@@ -77,8 +77,6 @@ class PeriodicOrbit:
         Switch times after the section [s], ``0 <= t - t0 < period``.
     mode_fractions : dict
         Fraction of the period spent in each mode.
-    stick_fraction : float or None
-        Fraction of the period in the model's ``orbit.stick_modes``.
     state_names : tuple of str
         Variables of the monodromy (quadratures excluded).
     monodromy : ndarray
@@ -127,7 +125,6 @@ class PeriodicOrbit:
     mode_sequence: tuple
     switch_times: np.ndarray
     mode_fractions: dict
-    stick_fraction: float | None
     state_names: tuple
     monodromy: np.ndarray
     multipliers: np.ndarray
@@ -180,7 +177,6 @@ class PeriodicOrbit:
             "mode_sequence": list(self.mode_sequence),
             "switch_times": [float(t) for t in self.switch_times],
             "mode_fractions": dict(self.mode_fractions),
-            "stick_fraction": self.stick_fraction,
             "family": self.family,
             "converged": self.converged,
             "residual": self.residual,
@@ -816,7 +812,6 @@ def _failed(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
         mode_sequence=(),
         switch_times=np.zeros(0),
         mode_fractions={},
-        stick_fraction=None,
         state_names=names,
         monodromy=np.full((ns, ns), nan),
         multipliers=np.full(ns, nan, dtype=complex),
@@ -1148,8 +1143,6 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     fr: dict[str, float] = {}
     for a, b, m in ivs:
         fr[m] = fr.get(m, 0.0) + (b - a) / shooter.period
-    sm = tuple(sys_.orbit.get("stick_modes", ()))
-    stick = sum(fr.get(m, 0.0) for m in sm) if sm else None
     seq = [mode0] + [e.target for e in tr.events]
     energy = {}
     en = sys_.energy
@@ -1201,7 +1194,6 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
         mode_sequence=tuple(seq),
         switch_times=np.array([e.t - t0 for e in tr.events]),
         mode_fractions=fr,
-        stick_fraction=stick,
         state_names=tuple(names[i] for i in s),
         monodromy=Ms,
         multipliers=mult,

@@ -267,8 +267,7 @@ class HybridSystem:
         Hints for periodic orbits: ``gauge``, an expression of the state
         (no ``t``) that selects one member of a family of periodic orbits
         (a neutral multiplier 1, e.g. the free offset of a stuck friction
-        element): the member with ``gauge = 0`` at the section is returned;
-        ``stick_modes``, the modes counted in an orbit's stick fraction.
+        element): the member with ``gauge = 0`` at the section is returned.
 
     Examples
     --------
@@ -587,10 +586,15 @@ class HybridSystem:
         self._set_cache("transitions", trans)
 
     def _validate_orbit(self, pre: str, base_known: set[str], defs: Mapping[str, Expr], mode_data) -> None:
-        unknown = set(self.orbit) - {"gauge", "stick_modes"}
+        if "stick_modes" in self.orbit:
+            raise ModelError(
+                f"{pre}: [orbit] `stick_modes` is no longer read: every orbit reports the fraction of the "
+                "period in each mode (`mode_fractions`; columns `fraction_<mode>` of frc.csv); remove the key"
+            )
+        unknown = set(self.orbit) - {"gauge"}
         if unknown:
             raise ModelError(
-                f"{pre}: [orbit] has unknown key(s) {', '.join(sorted(unknown))}; allowed: gauge, stick_modes"
+                f"{pre}: [orbit] has unknown key(s) {', '.join(sorted(unknown))}; allowed: gauge"
             )
         gauge = self.orbit.get("gauge")
         if gauge is None:
@@ -604,14 +608,6 @@ class HybridSystem:
             if free_symbols(g) & set(self.quadratures):
                 raise ModelError(f"{pre}: orbit gauge {gauge!r} depends on a quadrature")
             self._set_cache("gauge", g)
-        sm = self.orbit.get("stick_modes", ())
-        if not isinstance(sm, list | tuple) or not all(isinstance(m, str) for m in sm):
-            raise ModelError(f"{pre}: [orbit] `stick_modes` must be a list of mode names, got {sm!r}")
-        for m in sm:
-            if m not in mode_data:
-                raise ModelError(
-                    f"{pre}: [orbit] stick mode `{m}` is not a mode; modes: {', '.join(mode_data)}"
-                )
 
     def _set_cache(self, key: str, value) -> None:
         cache = self.__dict__.setdefault("_cache", {})

@@ -482,8 +482,9 @@ def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
     lines.append(
         f"  {orbit.transitions_per_period} switches per period; modes from t0 = {orbit.t0:.6g} s: {seq}"
     )
-    if orbit.stick_fraction is not None:
-        lines.append(f"  fraction of the period stuck: {orbit.stick_fraction:.4f}")
+    if orbit.mode_fractions:
+        fr = ", ".join(f"{m} {f:.4f}" for m, f in orbit.mode_fractions.items())
+        lines.append(f"  fraction of the period per mode: {fr}")
     lines.append("  multipliers (Re, Im, |mu|, kind):")
     for mu, kind in zip(orbit.multipliers, orbit.multiplier_kinds, strict=True):
         lines.append(f"    {mu.real:+.9f} {mu.imag:+.9f}i   |mu| = {abs(mu):.9f}   {kind}")

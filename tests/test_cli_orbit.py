@@ -30,7 +30,7 @@ ORBIT_KEYS = {
     "stable",
     "transitions_per_period",
     "mode_sequence",
-    "stick_fraction",
+    "mode_fractions",
     "converged",
     "residual",
     "parameters",
@@ -43,7 +43,7 @@ def test_orbit_pure_stick_matches_the_linear_closed_form(tmp_path, capsys):
     d = json.loads(out)
     assert ORBIT_KEYS <= set(d)
     assert d["omega"] == 0.5 and d["parameters"]["Omega"] == 0.5 and d["parameters"]["R"] == 0.5
-    assert d["converged"] and d["transitions_per_period"] == 0 and d["stick_fraction"] == 1.0
+    assert d["converged"] and d["transitions_per_period"] == 0 and d["mode_fractions"] == {"stick": 1.0}
     assert d["mode_sequence"] == ["stick"]
     assert math.isclose(d["period"], 2 * math.pi / 0.5, rel_tol=1e-12)
     a1, a2 = stick_amplitudes(models.absorber().preset("standard", Omega=0.5))
@@ -225,7 +225,9 @@ def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
         "Omega",
         "stability",
         "transitions_per_period",
-        "stick_fraction",
+        "fraction_stick",
+        "fraction_slip+",
+        "fraction_slip-",
         "mode_sequence",
     } <= cols
     assert {"max_abs_multiplier", "amplitude_x1", "amplitude_x2", "half_peak_to_peak_x1"} <= cols

@@ -244,7 +244,7 @@ def test_frc_cli_writes_every_row_once(tmp_path, capsys):
     for r in rows:
         W = float(r["Omega"])
         X = den_hartog(m, k, R, F, W)
-        assert r["transitions_per_period"] == "4" and float(r["stick_fraction"]) == 0.0, r
+        assert r["transitions_per_period"] == "4" and float(r["fraction_stick"]) == 0.0, r
         assert abs(float(r["amplitude_x"]) - X) <= den_hartog_tolerance(m, k, W) * X, (W, r["amplitude_x"], X)
     assert min(float(r["Omega"]) for r in rows) == 1.1 and max(float(r["Omega"]) for r in rows) >= 1.6
 

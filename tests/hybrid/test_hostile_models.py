@@ -147,7 +147,7 @@ def test_reference_model_is_valid(tmp_path):
         (("[presets.standard]", '[presets."../p"]'), r"preset name '\.\./p' is not allowed"),
         (
             ("[modes.free]", "[orbit]\nstick_modes = 5\n[modes.free]"),
-            r"`stick_modes` must be a list of mode names, got 5",
+            r"\[orbit\] `stick_modes` is no longer read: every orbit reports the fraction of the period in each mode",
         ),
         (
             ("[modes.free]", '[plot]\nforse = "x"\n[modes.free]'),

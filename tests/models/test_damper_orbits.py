@@ -57,7 +57,8 @@ def test_absorber_orbit_is_stick_slip_and_weakly_damped(absorber_orbit):
     o = absorber_orbit
     assert o.converged, o.message
     assert {"stick", "slip+", "slip-"} <= set(o.mode_sequence)
-    assert 0.0 < o.stick_fraction < 1.0 and not o.family
+    assert 0.0 < o.mode_fractions["stick"] < 1.0 and not o.family
+    assert sum(o.mode_fractions.values()) == pytest.approx(1.0, rel=1e-12)
     assert o.stability == "stable"
     mu_max = float(np.max(np.abs(o.floquet_multipliers)))
     assert 0.99 < mu_max < 1.0
