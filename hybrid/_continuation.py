@@ -71,7 +71,8 @@ class Branch:
     reason : str
         Why a stopped branch stopped: ``"unbounded"`` (the response grows without bound),
         ``"stalled"`` (the corrector failed ``max_failures`` times in a row), ``"no-start"``
-        (no first orbit), ``"budget"`` (a run's budget or the deadline), ``"interrupted"``;
+        (no first orbit), ``"degenerate"`` (``I - M`` vanishes at the first orbit: every nearby
+        state is periodic, e.g. an unforced system at rest, so there is no branch to follow), ``"budget"`` (a run's budget or the deadline), ``"interrupted"``;
         ``""`` if completed.
     """
 
@@ -502,6 +503,14 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
     if not first.converged and not near:
         stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}")
         return
+    if first.converged and not math.isfinite(first.condition):
+        add(first)
+        stop(
+            "degenerate",
+            f"no branch to follow from {parameter}={a:.8g}: I - M vanishes there (every nearby state is "
+            "periodic: is the system forced at all?)",
+        )
+        return
     pt = _Point(first.x0.copy(), a, first.mode0, first.t0 / first.period, orbit=first)
     try:
         pt.tangent = c.tangent(pt, None, direction)
@@ -516,7 +525,9 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             stop("stalled", f"stopped at {parameter}={a:.8g}: no tangent to the branch: {exc}")
         return
     add(first)
-    size0 = max(_size(first), 1e-300)
+    # Growth is measured from the first orbit's size, or from the absolute tolerance if that is
+    # smaller (an orbit at rest, e.g. without forcing, has a size of rounding noise).
+    size0 = max(_size(first), min(c.sh.options.atol_vector(c.sh.names)))
     ds_cur = st.ds
     rephased = False
     n_points, fails = 1, 0

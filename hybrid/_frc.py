@@ -56,16 +56,22 @@ class Piece:
     resonance : float or None
         The natural frequency inside the part.
     branches : list of Branch
-        The upward run, then (if needed) the downward run from ``hi``.
-    gap : tuple of float or None
-        ``(a, b)`` not covered by any branch.
+        The upward run (after a failed start at ``lo``, the runs started a little inside), then
+        (if needed) the downward run from ``hi``.
+    gaps : list of (float, float)
+        Parts of ``(lo, hi)`` not covered by any branch.
     """
 
     lo: float
     hi: float
     resonance: float | None
     branches: list = field(default_factory=list)
-    gap: tuple | None = None
+    gaps: list = field(default_factory=list)
+
+    @property
+    def gap(self) -> tuple | None:
+        """The first gap (None if the piece is covered)."""
+        return self.gaps[0] if self.gaps else None
 
 
 @dataclass
@@ -102,7 +108,7 @@ class FrequencyResponse:
 
     @property
     def gaps(self) -> list[tuple[float, float]]:
-        return [pc.gap for pc in self.pieces if pc.gap is not None]
+        return [g for pc in self.pieces for g in pc.gaps]
 
     @property
     def complete(self) -> bool:
@@ -152,6 +158,24 @@ class FrequencyResponse:
                 rows.append(row)
             offset += len(b.points)
         return rows
+
+
+#: Where a branch is started again, as fractions of its piece, when it cannot start at the piece's end.
+NO_START_RETRY = (1e-3, 2e-2)
+
+
+def _uncovered(a: float, b: float, spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Parts of ``(a, b)`` outside every span."""
+    out, at = [], a
+    for lo, hi in sorted(spans):
+        if lo > at:
+            out.append((at, min(lo, b)))
+        at = max(at, hi)
+        if at >= b:
+            break
+    if at < b:
+        out.append((at, b))
+    return [(x, y) for x, y in out if y > x]
 
 
 def _span(b: Branch) -> str:
@@ -240,22 +264,27 @@ def frequency_response(
         piece = Piece(a, b, w)
         out.pieces.append(piece)
         if deadline_passed():
-            out.timed_out, piece.gap = True, (a, b)
+            out.timed_out, piece.gaps = True, [(a, b)]
             continue
-        up = continuation(
-            system,
-            params,
-            parameter,
-            (a, b),
-            progress=report(done, b - a),
-            on_point=sink(),
-            **continuation_options,
-        )
-        piece.branches.append(up)
+        # A start that fails at the end of the range (e.g. a degenerate orbit there) is retried
+        # a little inside it; what lies before is a gap.
+        for start in [a] + [a + f * (b - a) for f in NO_START_RETRY]:
+            up = continuation(
+                system,
+                params,
+                parameter,
+                (start, b),
+                progress=report(done + (start - a), b - start),
+                on_point=sink(),
+                **continuation_options,
+            )
+            piece.branches.append(up)
+            if up.reason != "no-start" or deadline_passed():
+                break
         out.timed_out = out.timed_out or (up.status == "stopped" and deadline_passed())
         reach = float(np.max(up.p)) if up.points else a
         if reach < b and deadline_passed():
-            out.timed_out, piece.gap = True, (reach, b)
+            out.timed_out = True
         elif reach < b:
             down = continuation(
                 system,
@@ -268,9 +297,9 @@ def frequency_response(
             )
             piece.branches.append(down)
             out.timed_out = out.timed_out or (down.status == "stopped" and deadline_passed())
-            back = float(np.min(down.p)) if down.points else b
-            if back > reach:
-                piece.gap = (reach, back)
+        piece.gaps = _uncovered(
+            a, b, [(float(np.min(br.p)), float(np.max(br.p))) for br in piece.branches if br.points]
+        )
         done += b - a
         if progress is not None:
             progress(done / total)

@@ -69,7 +69,7 @@ def zoom_windows(fr: FrequencyResponse) -> list[tuple[float, float, float]]:
         span = [sp.parameter for b in pc.branches for sp in b.special if pc.lo <= sp.parameter <= pc.hi]
         if not span:
             span = [o.params[fr.parameter] for b in pc.branches for o in b.points if o.transitions_per_period]
-        span += list(pc.gap) if pc.gap else []
+        span += [v for g in pc.gaps for v in g]
         if span:
             a, b = min(span), max(span)
             pad = max(0.6 * (b - a), 2e-4 * pc.resonance)

@@ -275,3 +275,28 @@ def test_public_names_and_empty_branch():
     assert "no point" in repr(br)
     with pytest.raises(TypeError, match="unexpected"):
         continuation(system, dict(system.presets["forced"]), "Omega", (1.1, 1.2), step=0.1)
+
+
+def test_a_start_that_fails_at_the_range_end_is_retried_inside_it(coulomb):
+    """At Omega = 0.5 (r = 1/2) the forced Coulomb oscillator's orbit is degenerate (the exact
+    integrator finds a family there, multiplier 1): Newton from a transient does not converge at
+    IDA's noise. The curve starts a little inside the range instead, and reports what it left out."""
+    system, params = coulomb
+    fr = frequency_response(system, params, (0.5, 0.56))
+    first, *rest = fr.branches
+    assert first.reason == "no-start" and not first.points
+    assert rest and all(b.points for b in rest), [b.message for b in rest]
+    assert rest[0].p[0] == 0.5 + 1e-3 * 0.06  # the first retry, inside the range
+    # What no branch covers is reported; here the downward run from 0.56 passes 0.5.
+    for a, b in fr.gaps:
+        assert 0.5 <= a < b <= 0.5 + 2e-2 * 0.06
+    covered = sorted((float(b.p.min()), float(b.p.max())) for b in rest)
+    assert covered[0][0] <= 0.5 + 2e-2 * 0.06 and max(hi for _, hi in covered) >= 0.56
+    assert all(o.converged for b in rest for o in b.points)
+
+
+def test_an_unforced_system_has_no_branch_to_follow():
+    system = resolve_model("coulomb")
+    br = continuation(system, system.presets["free"], None, (0.5, 1.5))
+    assert br.status == "stopped" and br.reason == "degenerate", br.message
+    assert len(br.points) == 1 and "I - M vanishes" in br.message
