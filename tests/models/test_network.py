@@ -1,0 +1,286 @@
+"""Network files (issue 8): the derived automata against independent results.
+
+* the network absorber, isolator and Coulomb oscillator against the hand-written mode-level files:
+  the same switches (order, modes, times), trajectories and periodic orbits;
+* a static friction level above the sliding level: a mass on a friction contact under a slowly
+  rising force, against the closed form (break-away time, the sliding motion, the stop);
+* an offset excitation: the per-period drift of a friction contact against its closed form, and the
+  absorber's exact shift symmetry (its friction offset does not drift);
+* a single mass with a sequential element: the stick-slip band found on the builder's model against
+  the band derived by hand (docs/models.md).
+
+Tolerances are stated at each assertion; the measured figures are printed at the end of the module
+(run with ``-s``).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import models
+from hybrid import SolverOptions, load_system, periodic_orbit, simulate
+
+MODEL_DIR = Path(models.__file__).parent
+TIGHT = SolverOptions(rtol=1e-10, atol=1e-12)
+FIGURES: dict[str, float] = {}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _report():
+    yield
+    print("\nnetwork figures:")
+    for k, v in FIGURES.items():
+        print(f"  {k}: {v:.3g}")
+
+
+def _record(key: str, value: float) -> float:
+    FIGURES[key] = max(FIGURES.get(key, 0.0), float(value))
+    return value
+
+
+def _net(name: str):
+    return load_system(MODEL_DIR / f"{name}.toml")
+
+
+# ----------------------------------------------------------------------------
+# Network-built models against the hand-written ones
+# ----------------------------------------------------------------------------
+CASES = [
+    ("absorber", "absorber_network", "fig3a", {}),
+    ("absorber", "absorber_network", "fig3b", {}),
+    ("isolator", "isolator_network", "fig4a", {}),
+    ("isolator", "isolator_network", "fig4b", {}),
+    ("coulomb", "coulomb_network", "forced", {}),
+    ("coulomb", "coulomb_network", "free", {"x": 1.0}),
+]
+
+
+@pytest.mark.parametrize(("hand_name", "net_name", "preset", "start"), CASES)
+def test_network_trajectory_equals_the_hand_written_model(hand_name, net_name, preset, start):
+    hand, net = models.BUILTIN[hand_name](), _net(net_name)
+    assert net.variable_names == hand.variable_names
+    assert net.mode_names == hand.mode_names
+    p = hand.preset(preset)
+    T = 2 * math.pi / p["Omega"]
+    x0 = {n: 0.0 for n in hand.variable_names} | start
+    t_eval = np.linspace(0.0, 10 * T, 1001)
+    a = simulate(hand, p, (0.0, 10 * T), x0, t_eval=t_eval, options=TIGHT)
+    b = simulate(net, p, (0.0, 10 * T), x0, t_eval=t_eval, options=TIGHT)
+    assert a.success and b.success
+    assert len(a.events) >= 10  # the runs stick and slip
+    assert [(e.source, e.target) for e in a.events] == [(e.source, e.target) for e in b.events]
+    dt = max(abs(e.t - f.t) for e, f in zip(a.events, b.events, strict=True))
+    # switch times: 1e-7 s over ten periods of 7-9 s (rtol 1e-10)
+    assert _record(f"{hand_name} switch time, largest difference [s]", dt) <= 1e-7
+    scale = np.max(np.abs(a.y), axis=0)
+    rel = np.max(np.abs(a.y - b.y) / np.where(scale > 0, scale, 1.0))
+    # states relative to their largest magnitude: 1e-7 (measured a few 1e-9)
+    assert _record(f"{hand_name} trajectory, largest relative difference", rel) <= 1e-7
+    d = np.max(np.abs(a["E"] - b["E"])) / np.max(np.abs(a["E"]))
+    assert _record(f"{hand_name} mechanical energy E, largest relative difference", d) <= 1e-7
+
+
+def test_network_friction_outputs_equal_the_hand_written_ones():
+    """The element force and relative velocity of the absorber network are the paper's H and v_rel."""
+    hand, net = models.absorber(), _net("absorber_network")
+    p = hand.preset("fig3a")
+    T = 2 * math.pi / p["Omega"]
+    x0 = {n: 0.0 for n in hand.variable_names}
+    t_eval = np.linspace(0.0, 4 * T, 401)
+    a = simulate(hand, p, (0.0, 4 * T), x0, t_eval=t_eval, options=TIGHT)
+    b = simulate(net, p, (0.0, 4 * T), x0, t_eval=t_eval, options=TIGHT)
+    for h, n in (("H", "f_H"), ("v_rel", "w_H"), ("D", "D"), ("W", "W")):
+        d = np.max(np.abs(a[h] - b[n])) / np.max(np.abs(a[h]))
+        assert _record("absorber outputs H, v_rel, W, D: largest relative difference", d) <= 1e-7, h
+
+
+@pytest.mark.parametrize(
+    ("hand_name", "net_name", "preset"),
+    [("absorber", "absorber_network", "fig3a"), ("isolator", "isolator_network", "fig4a")],
+)
+def test_network_periodic_orbit_equals_the_hand_written_one(hand_name, net_name, preset):
+    hand, net = models.BUILTIN[hand_name](), _net(net_name)
+    p = hand.preset(preset)
+    a, b = periodic_orbit(hand, p), periodic_orbit(net, p)
+    assert a.converged and b.converged
+    assert a.mode_sequence == b.mode_sequence and len(a.switch_times) >= 2
+    dt = np.max(np.abs(a.switch_times - b.switch_times))
+    assert _record("periodic orbit switch times, largest difference [s]", dt) <= 1e-7
+    scale = np.max(np.abs(a.trajectory.y), axis=0)
+    rel = np.max(np.abs(a.trajectory.y - b.trajectory.y) / np.where(scale > 0, scale, 1.0))
+    # the orbits are found by Newton's method to tol 1e-9 (relative): 1e-7 on the states
+    assert _record("periodic orbit states, largest relative difference", rel) <= 1e-7
+    dmu = np.max(np.abs(np.sort_complex(a.multipliers) - np.sort_complex(b.multipliers)))
+    assert _record("Floquet multipliers, largest difference", dmu) <= 1e-8
+
+
+# ----------------------------------------------------------------------------
+# Static level above the sliding level: closed form
+# ----------------------------------------------------------------------------
+def _sliding(p, t_b, x_b):
+    """Velocity and position of a mass sliding forward from rest at t_b under F0 + F sin(Om t) - R."""
+    m, R, F0, F, om = p["m"], p["R"], p["F0"], p["F"], p["Omega"]
+
+    def v(t):
+        return ((F0 - R) * (t - t_b) + F / om * (math.cos(om * t_b) - math.cos(om * t))) / m
+
+    def x(t):
+        s = t - t_b
+        return (
+            x_b
+            + (
+                (F0 - R) * s**2 / 2
+                + F / om * (math.cos(om * t_b) * s - (math.sin(om * t) - math.sin(om * t_b)) / om)
+            )
+            / m
+        )
+
+    return v, x
+
+
+def _stop_time(v, t_b, om):
+    """First zero of the sliding velocity after t_b (it is positive just after)."""
+    grid = t_b + np.linspace(1e-9, 2 * math.pi / om, 20001)
+    vals = np.array([v(t) for t in grid])
+    k = int(np.argmax(vals < 0))
+    assert k > 0
+    return brentq(v, grid[k - 1], grid[k], xtol=1e-14, rtol=1e-15)
+
+
+def test_static_level_breakaway_and_sliding_against_the_closed_form():
+    net = _net("friction_contact")
+    p = net.preset("breakaway")  # F0 = 0, F = 0.6, R = 0.3 < Rs = 0.5, Omega = 0.5
+    om, F, R, Rs = p["Omega"], p["F"], p["R"], p["Rs"]
+    t_b = math.asin(Rs / F) / om  # sticks until the force reaches the static level
+    v, x = _sliding(p, t_b, 0.0)
+    t_s = _stop_time(v, t_b, om)
+    assert abs(F * math.sin(om * t_s)) < Rs  # ... and sticks again when it stops
+    t_b2 = (math.pi + math.asin(Rs / F)) / om  # breaks away backwards when F sin reaches -Rs
+    assert t_s < t_b2
+    t_eval = np.linspace(0.0, t_b2 - 1.0, 2001)
+    tr = simulate(net, p, (0.0, t_b2 + 1.0), {"x": 0.0, "v": 0.0}, t_eval=t_eval, options=TIGHT)
+    got = [(e.source, e.target) for e in tr.events]
+    assert got == [("stick", "slip+"), ("slip+", "stick"), ("stick", "slip-")]
+    for e, exact in zip(tr.events, (t_b, t_s, t_b2), strict=True):
+        _record("static level: event times vs closed form, largest difference [s]", abs(e.t - exact))
+        assert abs(e.t - exact) <= 1e-8 * exact  # relative 1e-8
+    # the motion: at rest, then sliding against R (not Rs), then at rest at x(t_s)
+    exact_x = np.array([0.0 if t <= t_b else (x(t) if t <= t_s else x(t_s)) for t in t_eval])
+    exact_v = np.array([v(t) if t_b < t <= t_s else 0.0 for t in t_eval])
+    ex = np.max(np.abs(tr["x"] - exact_x)) / np.max(np.abs(exact_x))
+    ev = np.max(np.abs(tr["v"] - exact_v)) / np.max(np.abs(exact_v))
+    _record("static level: x and v vs closed form, largest relative difference", max(ex, ev))
+    assert ex <= 1e-8 and ev <= 1e-8
+    # with the static level equal to the sliding one it breaks away at R instead
+    p2 = net.preset("breakaway", Rs=R)
+    tr2 = simulate(net, p2, (0.0, t_b + 1.0), {"x": 0.0, "v": 0.0}, options=TIGHT)
+    assert abs(tr2.events[0].t - math.asin(R / F) / om) <= 1e-8 * t_b
+
+
+# ----------------------------------------------------------------------------
+# Offset excitation: drift per period
+# ----------------------------------------------------------------------------
+def test_offset_excitation_drift_per_period_against_the_closed_form():
+    net = _net("friction_contact")
+    p = net.preset("drift")  # F0 = 0.2, F = 0.5, R = 0.3, Rs = 0.4: forward slips only
+    om, F0, F, Rs = p["Omega"], p["F0"], p["F"], p["Rs"]
+    T = 2 * math.pi / om
+    assert F0 - F > -Rs  # never breaks away backwards
+    t_b = math.asin((Rs - F0) / F) / om
+    v, x = _sliding(p, t_b, 0.0)
+    t_s = _stop_time(v, t_b, om)
+    assert t_s < T + t_b and abs(F0 + F * math.sin(om * t_s)) < Rs
+    drift = x(t_s)  # the same slip every period: the force repeats and the mass starts from rest
+    n = 6
+    tr = simulate(net, p, (0.0, n * T), {"x": 0.0, "v": 0.0}, t_eval=np.arange(n + 1) * T, options=TIGHT)
+    steps = np.diff(tr["x"])
+    rel = np.max(np.abs(steps - drift)) / drift
+    _record("offset drift per period vs closed form, largest relative difference", rel)
+    FIGURES["offset drift per period (closed form) [m]"] = drift
+    assert rel <= 1e-8
+    assert len(tr.events) == 2 * n  # one break-away and one stop per period
+
+
+def test_absorber_offset_shifts_the_chain_and_its_friction_offset_does_not_drift():
+    """F0 on m1 only moves x1, u, x2 by F0/c1 (docs/models.md): the element's offset does not drift."""
+    off, net = _net("absorber_offset"), _net("absorber_network")
+    p = off.preset("standard")
+    q = {k: v for k, v in p.items() if k != "F0"}
+    shift = p["F0"] / p["c1"]
+    T = 2 * math.pi / p["Omega"]
+    t_eval = np.linspace(0.0, 10 * T, 1001)
+    zero = {n: 0.0 for n in net.variable_names}
+    a = simulate(
+        off, p, (0.0, 10 * T), zero | {"x1": shift, "x2": shift, "u": shift}, t_eval=t_eval, options=TIGHT
+    )
+    b = simulate(net, q, (0.0, 10 * T), zero, t_eval=t_eval, options=TIGHT)
+    assert len(a.events) > 10
+    assert [(e.source, e.target) for e in a.events] == [(e.source, e.target) for e in b.events]
+    dt = max(abs(e.t - f.t) for e, f in zip(a.events, b.events, strict=True))
+    assert _record("absorber offset vs shifted zero-offset run: switch times [s]", dt) <= 1e-7
+    for name in ("x1", "x2", "u"):
+        d = np.max(np.abs(a[name] - shift - b[name])) / np.max(np.abs(b[name]))
+        assert _record("absorber offset vs shifted zero-offset run: states, relative", d) <= 1e-7
+    # hence its friction offset x2 - u does not drift: the periodic orbit is the shifted one
+    orbit = periodic_orbit(off, p)
+    assert orbit.converged
+    y = orbit.trajectory
+    mean_x1 = np.mean(y["x1"][:-1])
+    ref = periodic_orbit(net, q)
+    assert abs(mean_x1 - shift - np.mean(ref.trajectory["x1"][:-1])) <= 1e-6 * np.max(
+        np.abs(ref.trajectory["x1"])
+    )
+
+
+# ----------------------------------------------------------------------------
+# Single mass with a sequential element: the stick-slip band
+# ----------------------------------------------------------------------------
+def _band(p):
+    """The band derived in docs/models.md: no orbit sticks throughout iff |c1 + c2 - m Om^2| <= c2 F / R."""
+    m, c1, c2, R, F = p["m"], p["c1"], p["c2"], p["R"], p["F"]
+    lo = math.sqrt((c1 + c2 - c2 * F / R) / m)
+    hi = math.sqrt((c1 + c2 + c2 * F / R) / m)
+    return lo, hi
+
+
+def _slips_in_one_period(system, p, omega) -> bool:
+    """Does the builder's model, started on the symmetric stuck orbit, break away within a period?"""
+    q = dict(p, Omega=omega)
+    a = q["F"] / (q["c1"] + q["c2"] - q["m"] * omega**2)  # stuck: x = a sin(Omega t), u = 0
+    x0 = {"x": 0.0, "v": a * omega, "u": 0.0, "W": 0.0, "D": 0.0}
+    tr = simulate(system, q, (0.0, 1.05 * 2 * math.pi / omega), x0, "stick", options=TIGHT)
+    return len(tr.events) > 0
+
+
+def test_sequential_element_stick_slip_band_against_the_hand_derivation():
+    net = _net("sequential")
+    p = net.preset("standard")
+    lo, hi = _band(p)
+    assert lo < p["Omega"] < hi
+    found = []
+    for inside, outside in ((1.01 * lo, 0.9 * lo), (0.99 * hi, 1.1 * hi)):
+        assert _slips_in_one_period(net, p, inside) and not _slips_in_one_period(net, p, outside)
+        a, b = outside, inside
+        for _ in range(24):  # bisection on the builder's model: 2**-24 of the bracket
+            mid = 0.5 * (a + b)
+            if _slips_in_one_period(net, p, mid):
+                b = mid
+            else:
+                a = mid
+        found.append(0.5 * (a + b))
+    for edge, exact in zip(found, (lo, hi), strict=True):
+        rel = abs(edge - exact) / exact
+        _record("sequential band edges vs hand derivation, largest relative difference", rel)
+        assert rel <= 1e-6  # the bisection resolves 0.1*edge/2**24 ~ 6e-9; the event tolerance less
+    FIGURES["sequential band lower edge [rad/s]"] = found[0]
+    FIGURES["sequential band upper edge [rad/s]"] = found[1]
+    # the builder's periodic orbits: stuck throughout outside the band, sticking and slipping inside
+    for omega, slips in ((0.97 * lo, False), (p["Omega"], True), (1.03 * hi, False)):
+        orbit = periodic_orbit(net, dict(p, Omega=omega))
+        assert orbit.converged
+        assert (set(orbit.mode_sequence) != {"stick"}) == slips, (omega, orbit.mode_sequence)
