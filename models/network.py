@@ -956,7 +956,7 @@ def describe_network(net: Network) -> str:
         lines.append(f"  node   {u:<10} massless" + (f"  ({desc})" if desc else ""))
     ground = "ground (moving: y = " + f"{net.base[0]}*sin({net.base[1]}*t))" if net.base else "ground"
     lines.append(f"  {ground}")
-    symbols = {"spring": "/\\/\\", "damper": "[=]", "friction": "]|["}
+    symbols = {"spring": "/\\/\\", "damper": "[==]", "friction": "]||["}
     for e in net.elements:
         what = {"spring": f"k = {e.coef}", "damper": f"c = {e.coef}", "friction": f"R = {e.coef}"}[e.kind]
         if e.static:
