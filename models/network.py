@@ -245,7 +245,7 @@ def _coef(value: object, params: Mapping[str, str], where: str) -> str:
     return value.strip()
 
 
-def _level(value: str, params: Mapping[str, str], presets: Mapping, where: str) -> None:
+def _level(value: str, params: Mapping[str, str], where: str) -> None:
     """A friction level must be a positive number or a parameter whose domain is positive."""
     try:
         number = float(value)
@@ -381,10 +381,10 @@ def read_network(data: Mapping) -> Network:
             coef = _coef(spec[coef_key[table]], params, f"{where} `{coef_key[table]}`")
             static = None
             if table == "friction":
-                _level(coef, params, presets, f"{where} `sliding`")
+                _level(coef, params, f"{where} `sliding`")
                 if "static" in spec:
                     static = _coef(spec["static"], params, f"{where} `static`")
-                    _level(static, params, presets, f"{where} `static`")
+                    _level(static, params, f"{where} `static`")
                     _check_static(coef, static, presets, where)
             elements.append(Element(kinds[table], name, ends[0], ends[1], coef, static))
     if len(elements) > MAX_ELEMENTS:
@@ -743,6 +743,9 @@ class _Mode:
 
 
 def _mode_name(states: tuple[str, ...]) -> str:
+    """``stick`` etc. for one element, states joined by ``_`` for several, ``free`` for none."""
+    if not states:
+        return "free"
     return states[0] if len(states) == 1 else "_".join(states)
 
 

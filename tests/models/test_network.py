@@ -284,3 +284,140 @@ def test_sequential_element_stick_slip_band_against_the_hand_derivation():
         orbit = periodic_orbit(net, dict(p, Omega=omega))
         assert orbit.converged
         assert (set(orbit.mode_sequence) != {"stick"}) == slips, (omega, orbit.mode_sequence)
+
+
+# ----------------------------------------------------------------------------
+# Derived dynamics of other topologies against closed forms
+# ----------------------------------------------------------------------------
+def _network(**tables) -> dict:
+    params = tables.pop("params")
+    return {
+        "model": {"name": "probe", "format": "network"},
+        "parameters": {p: {"domain": "positive"} for p in params},
+        **tables,
+    }
+
+
+def test_damped_oscillator_without_friction_decays_as_the_closed_form():
+    from hybrid import system_from_dict
+
+    system = system_from_dict(
+        _network(
+            params=("m", "k", "c"),
+            masses={"x": {"mass": "m", "velocity": "v"}},
+            springs={"s": {"between": ["ground", "x"], "stiffness": "k"}},
+            dampers={"d": {"between": ["x", "ground"], "coefficient": "c"}},
+        )
+    )
+    assert system.mode_names == ("free",)
+    p = {"m": 2.0, "k": 3.0, "c": 0.4}
+    w0 = math.sqrt(p["k"] / p["m"])
+    zeta = p["c"] / (2 * math.sqrt(p["k"] * p["m"]))
+    wd = w0 * math.sqrt(1 - zeta**2)
+    t = np.linspace(0.0, 30.0, 601)
+    exact = np.exp(-zeta * w0 * t) * (np.cos(wd * t) + zeta * w0 / wd * np.sin(wd * t))
+    tr = simulate(system, p, (0.0, 30.0), {"x": 1.0, "v": 0.0, "W": 0.0, "D": 0.0}, t_eval=t, options=TIGHT)
+    rel = np.max(np.abs(tr["x"] - exact))
+    assert _record("damped oscillator vs closed form, largest difference [m] (x0 = 1 m)", rel) <= 1e-8
+    # the damper's dissipation is the lost energy: D(t) = E(0) - E(t)
+    assert np.max(np.abs(tr["D"] - (tr["E"][0] - tr["E"]))) <= 1e-8 * tr["E"][0]
+
+
+def test_masses_glued_by_a_sticking_element_move_as_one_body():
+    from hybrid import system_from_dict
+
+    system = system_from_dict(
+        _network(
+            params=("m1", "m2", "k", "R"),
+            masses={"a": {"mass": "m1"}, "b": {"mass": "m2"}},
+            springs={"s": {"between": ["ground", "a"], "stiffness": "k"}},
+            friction={"f": {"between": ["a", "b"], "sliding": "R"}},
+        )
+    )
+    p = {"m1": 1.0, "m2": 3.0, "k": 2.0, "R": 10.0}
+    w = math.sqrt(p["k"] / (p["m1"] + p["m2"]))
+    t = np.linspace(0.0, 20.0, 401)
+    x0 = 1.0
+    state = {"a": x0, "v_a": 0.0, "b": x0, "v_b": 0.0, "W": 0.0, "D": 0.0}
+    tr = simulate(system, p, (0.0, 20.0), state, "stick", t_eval=t, options=TIGHT)
+    assert not tr.events
+    for name in ("a", "b"):  # 1e-7 of the 1 m amplitude (IDA's global error over 2.3 periods)
+        d = np.max(np.abs(tr[name] - x0 * np.cos(w * t)))
+        assert _record("glued masses vs closed form, largest difference [m] (x0 = 1 m)", d) <= 1e-7
+    # the element pulls b along: f (on a) = -m2 * (acceleration of b) = k m2 a / (m1 + m2)
+    f_exact = p["k"] * p["m2"] * x0 * np.cos(w * t) / (p["m1"] + p["m2"])
+    assert np.max(np.abs(tr["f_f"] - f_exact)) <= 1e-7 * np.max(np.abs(f_exact))
+    # with a level below the force it must carry at t = 0 (k m2 x0/(m1 + m2) = 1.5 N on a), it breaks
+    # away at once, forwards: the spring pulls a back faster than the element can drag b (v_b > v_a)
+    tr = simulate(system, dict(p, R=1.0), (0.0, 1.0), state, "stick", options=TIGHT)
+    assert tr.events[0].t == 0.0 and tr.events[0].target == "slip+"
+    assert tr["w_f"][-1] > 0 and tr.mode[-1] == "slip+"
+
+
+def test_mass_on_a_contact_with_a_moving_base_breaks_away_and_stops_as_the_closed_form():
+    from hybrid import system_from_dict
+
+    system = system_from_dict(
+        _network(
+            params=("m", "R", "Y", "Omega"),
+            masses={"x": {"mass": "m", "velocity": "v"}},
+            friction={"c": {"between": ["ground", "x"], "sliding": "R"}},
+            base={"amplitude": "Y", "frequency": "Omega"},
+        )
+    )
+    p = {"m": 1.0, "R": 0.5, "Y": 1.0, "Omega": 1.0}
+    m, R, Y, om = p["m"], p["R"], p["Y"], p["Omega"]
+    # stuck, the contact carries m * base acceleration: it slips when m Y Om^2 sin(Om t) reaches R
+    t_b = math.asin(R / (m * Y * om**2)) / om
+    # then the mass decelerates at R/m from the base's velocity until the base's velocity meets it
+    v = lambda t: Y * om * math.cos(om * t_b) - R / m * (t - t_b)  # noqa: E731
+
+    def gap(t):
+        return v(t) - Y * om * math.cos(om * t)
+
+    grid = np.linspace(t_b + 1e-6, t_b + 2 * math.pi / om, 2001)
+    k = int(np.argmax(np.array([gap(s) for s in grid]) < 0))
+    t_s = brentq(gap, grid[k - 1], grid[k], xtol=1e-14)
+    state = {"x": 0.0, "v": Y * om, "W": 0.0, "D": 0.0}  # moving with the base at t = 0
+    tr = simulate(system, p, (0.0, t_s + 0.5), state, "stick", options=TIGHT)
+    assert [(e.source, e.target) for e in tr.events][:2] == [("stick", "slip+"), ("slip+", "stick")]
+    for e, exact in zip(tr.events[:2], (t_b, t_s), strict=True):
+        assert _record("moving base: switch times vs closed form [s]", abs(e.t - exact)) <= 1e-8
+    x_s = Y * math.sin(om * t_b) + Y * om * math.cos(om * t_b) * (t_s - t_b) - R / (2 * m) * (t_s - t_b) ** 2
+    assert abs(tr.events[1].x_minus[0] - x_s) <= 1e-8
+    # the energy balance holds with the base's work: W = D + change of E
+    assert abs(tr["W"][-1] - tr["D"][-1] - (tr["E"][-1] - tr["E"][0])) <= 1e-8
+
+
+def test_isolator_under_base_motion_with_a_stuck_element_is_the_linear_steady_state():
+    net = _net("isolator_base")
+    p = net.preset("standard", R=1e6, Omega=0.7)
+    om, Y = p["Omega"], p["Y"]
+    M = np.diag([p["m1"], p["m2"]])
+    K = np.array([[p["c1"] + p["c2"], -p["c2"]], [-p["c2"], p["c2"]]])
+    X = np.linalg.solve(K - om**2 * M, [p["c1"] * Y, 0.0])  # u = Y sin(Om t) drives m1 through c1
+    T = 2 * math.pi / om
+    t = np.linspace(0.0, 5 * T, 501)
+    state = {"x1": 0.0, "v1": X[0] * om, "x2": 0.0, "v2": X[1] * om, "u": 0.0, "W": 0.0, "D": 0.0}
+    tr = simulate(net, p, (0.0, 5 * T), state, "stick", t_eval=t, options=TIGHT)
+    assert not tr.events
+    for name, amp in (("x1", X[0]), ("x2", X[1]), ("u", Y)):
+        d = np.max(np.abs(tr[name] - amp * np.sin(om * t))) / abs(amp)
+        assert _record("isolator under base motion, stuck: relative difference", d) <= 1e-8
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["sequential", "absorber_two_friction", "absorber_offset", "isolator_base", "friction_contact"],
+)
+def test_energy_balance_of_the_shipped_networks(name):
+    net = _net(name)
+    p = net.preset(next(iter(net.presets)))
+    T = net.period_value(p)
+    tr = simulate(
+        net, p, (0.0, 10 * T), {n: 0.0 for n in net.variable_names}, samples_per_period=50, options=TIGHT
+    )
+    assert len(tr.events) >= 10
+    residual = np.max(np.abs(tr["W"] - tr["D"] - (tr["E"] - tr["E"][0])))
+    scale = np.max(np.abs(tr["W"])) + np.max(np.abs(tr["D"]))
+    assert _record("energy balance W = D + dE, largest relative residual", residual / scale) <= 1e-7
