@@ -57,9 +57,8 @@ import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 
-from hybrid import ExpressionError, HybridSystem, ModelError, load_system, system_from_dict
+from hybrid import ExpressionError, ModelError
 from hybrid._expr import parse
 
 __all__ = [
@@ -68,10 +67,8 @@ __all__ = [
     "build",
     "describe",
     "describe_network",
-    "load_network",
     "network_model",
     "read_network",
-    "system_from_network",
 ]
 
 #: Name of the fixed point (the base when ``[base]`` is given).
@@ -95,7 +92,7 @@ _TOP = {
     "plot",
     "orbit",
 }
-_MODEL = {"name", "title", "reference", "format", "description"}
+_MODEL = {"name", "title", "reference", "format"}
 _KEYS = {
     "masses": ({"mass"}, {"velocity", "description"}),
     "nodes": (set(), {"description"}),
@@ -995,13 +992,3 @@ def build(data: Mapping) -> dict:
 def describe(data: Mapping) -> str:
     """The network of a parsed network file as text (the ``network`` model format's description)."""
     return describe_network(read_network(data))
-
-
-def load_network(path: str | Path) -> HybridSystem:
-    """Read a network file and derive its :class:`hybrid.HybridSystem` (same as :func:`hybrid.load_system`)."""
-    return load_system(path)
-
-
-def system_from_network(data: Mapping) -> HybridSystem:
-    """The :class:`hybrid.HybridSystem` of a parsed network file."""
-    return system_from_dict(build(data))
