@@ -585,6 +585,12 @@ class _Mode:
                     groups[p] = ga
         for p in points:
             self.cluster[p] = frozenset(groups[p])
+        self._acc: dict[frozenset[str], str] = {}
+        self.order = {p: k for k, p in enumerate(points)}
+        self.touching: dict[str, list[Element]] = {p: [] for p in points}
+        for e in net.elements:
+            self.touching[e.a].append(e)
+            self.touching[e.b].append(e)
 
     # positions, velocities, accelerations of points -------------------------
     def pos(self, p: str) -> str:
@@ -615,7 +621,7 @@ class _Mode:
         if r is not None:
             return self.net.masses[r][1]
         # a free massless node: the time derivative of its force balance (springs to masses/ground only)
-        springs = [e for e in self.net.elements if e.kind == "spring" and p in (e.a, e.b)]
+        springs = [e for e in self.touching[p] if e.kind == "spring"]
         if len(springs) == 1:
             e = springs[0]
             return self.vel(e.b if e.a == p else e.a)
@@ -637,11 +643,9 @@ class _Mode:
     def external(self, group: frozenset[str], skip: Element | None = None) -> list[str]:
         """Signed terms of the force on ``group`` from everything outside it (never the ground's)."""
         terms: list[str] = []
-        for p in (*self.net.masses, *self.net.nodes):
-            if p not in group:
-                continue
-            for e in self.net.elements:
-                if p not in (e.a, e.b) or e is skip:
+        for p in sorted(group - {GROUND}, key=self.order.__getitem__):
+            for e in self.touching[p]:
+                if e is skip:
                     continue
                 q = e.b if e.a == p else e.a
                 if q in group:
@@ -669,10 +673,12 @@ class _Mode:
         c = self.cluster[p]
         if GROUND in c:
             return self.ground_acc()
-        m = self.mass_of(c)
-        num = _join(self.external(c))
-        den = _paren(m[0]) if len(m) == 1 else "(" + " + ".join(m) + ")"
-        return f"({num})/{den}"
+        if c not in self._acc:  # once per cluster: all its masses share it
+            m = self.mass_of(c)
+            num = _join(self.external(c))
+            den = _paren(m[0]) if len(m) == 1 else "(" + " + ".join(m) + ")"
+            self._acc[c] = f"({num})/{den}"
+        return self._acc[c]
 
     def side(self, e: Element) -> frozenset[str]:
         """The part of ``e``'s cluster on the side of ``e.a`` when ``e`` is cut."""
