@@ -387,3 +387,62 @@ def test_fuzz_network_reader_gives_a_model_or_a_clean_error(data):
         assert isinstance(system, HybridSystem)
         OUTCOMES["valid model"] += 1
     assert time.perf_counter() - start < 5.0
+
+
+TEXTS = {n: (MODEL_DIR / f"{n}.toml").read_text() for n in NETWORKS}
+SNIPPETS = st.sampled_from(
+    [
+        '"',
+        "'",
+        "[",
+        "]",
+        "[[friction]]",
+        "=",
+        "\n",
+        "\x00",
+        "\u00e9",
+        'between = ["u", "u"]',
+        'sliding = "-R"',
+        "static = 1e999",
+        "[masses.ground]",
+        "[nodes.u]\n",
+        "format = 1",
+        "{",
+        "}",
+        'stiffness = "c1**c1**c1"',
+        "mass = 0",
+        "[base]\namplitude = 1\nfrequency = 0",
+        " ",
+    ]
+)
+
+
+@st.composite
+def spliced_texts(draw) -> str:
+    text = TEXTS[draw(st.sampled_from(NETWORKS))]
+    for _ in range(draw(st.integers(1, 3))):
+        i = draw(st.integers(0, len(text)))
+        j = draw(st.integers(i, min(len(text), i + 40)))
+        piece = draw(st.one_of(SNIPPETS, st.text(max_size=8), st.just("")))
+        text = text[:i] + piece + text[j:]
+    return text
+
+
+@settings(FUZZ, max_examples=200)
+@given(spliced_texts())
+def test_fuzz_network_files_as_text_give_a_model_or_a_clean_error(text):
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "spliced.toml"
+        path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        start = time.perf_counter()
+        try:
+            system = load_system(path)
+        except ModelError as exc:
+            assert str(exc).startswith(("spliced.toml: ", "model file ")), str(exc)
+            OUTCOMES["clean error (file)"] += 1
+        else:
+            assert isinstance(system, HybridSystem)
+            OUTCOMES["valid model (file)"] += 1
+        assert time.perf_counter() - start < 5.0
