@@ -895,10 +895,12 @@ def network_model(net: Network) -> dict:
         units["y_base"] = "m"
     plot: dict = {"displacements": list(net.masses), "units": units}
     if friction:
+        # the figure draws the first element: shade where it sticks
+        first_sticks = [_mode_name(c) for c in combos if c[0] == "stick"]
         plot |= {
             "force": f"f_{friction[0].name}",
             "velocity": f"w_{friction[0].name}",
-            "shade_modes": [all_stick],
+            "shade_modes": first_sticks,
         }
     if net.plot is not None:
         plot = dict(net.plot)
