@@ -63,11 +63,18 @@ from pathlib import Path
 
 from ._system import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
 
-__all__ = ["load_system", "system_from_dict", "read_model_file", "describe_model_file", "MAX_FILE_BYTES"]
+__all__ = [
+    "load_system",
+    "system_from_dict",
+    "read_model_file",
+    "describe_model_file",
+    "draw_model_file",
+    "MAX_FILE_BYTES",
+]
 
 #: Entry-point group of the model-file formats other than "modes": each entry loads an object
 #: (e.g. a module) with ``build(data) -> mapping``, turning the parsed file into the content of a
-#: mode-level file, and optionally ``describe(data) -> str``.
+#: mode-level file, and optionally ``describe(data) -> str`` and ``draw(data, png_path)``.
 FORMAT_GROUP = "hybrid.model_formats"
 
 #: Largest model file read [bytes] (checked before it is read; the shipped models are about 5 KB).
@@ -134,6 +141,26 @@ def describe_model_file(path: str | Path) -> str | None:
         if fmt is None or not hasattr(fmt, "describe"):
             return None
         return str(fmt.describe(data))
+    except ModelError as exc:
+        raise ModelError(f"{path.name}: {exc}") from None
+
+
+def draw_model_file(path: str | Path, out: str | Path) -> bool:
+    """Write the figure its format draws of a model file to ``out``; False if the format draws none.
+
+    Raises
+    ------
+    ModelError
+        As :func:`load_system`.
+    """
+    path = Path(path)
+    data = read_model_file(path)
+    try:
+        fmt = _format(data)
+        if fmt is None or not hasattr(fmt, "draw"):
+            return False
+        fmt.draw(data, out)
+        return True
     except ModelError as exc:
         raise ModelError(f"{path.name}: {exc}") from None
 

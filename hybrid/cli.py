@@ -31,7 +31,7 @@ from ._io import (
     write_rows_csv,
     write_trajectory_csv,
 )
-from ._loader import describe_model_file, load_system
+from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
 from ._progress import ProgressBar
@@ -290,6 +290,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_show_parser(sub) -> None:
     p = sub.add_parser("show", help="print a model's modes, guards and transitions (and its network, if any)")
     p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
+    p.add_argument(
+        "--out", default=None, metavar="PNG", help="also draw the network of a network file to PNG"
+    )
 
 
 def _info(msg: str) -> None:
@@ -807,10 +810,17 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
 
 def cmd_show(args) -> int:
     system = resolve_model(args.model)
-    description = None
-    if args.model.endswith(".toml") or "/" in args.model or Path(args.model).exists():
-        description = describe_model_file(Path(args.model))
+    is_file = args.model.endswith(".toml") or "/" in args.model or Path(args.model).exists()
+    description = describe_model_file(Path(args.model)) if is_file else None
+    if args.out is not None:
+        out = Path(args.out)
+        if not args.out.strip() or out.is_dir() or not out.parent.is_dir():
+            raise UsageError(f"`--out {args.out}` must name a PNG file in an existing folder")
+        if description is None or not draw_model_file(Path(args.model), out):
+            raise UsageError(f"model `{system.name}` is not a network file: there is no network to draw")
     print(show_text(system, description))
+    if args.out is not None:
+        _info(f"wrote {args.out}")
     return 0
 
 

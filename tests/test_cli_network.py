@@ -67,3 +67,15 @@ def test_a_bad_network_file_fails_in_one_line_naming_the_file_and_element(tmp_pa
             err
             == "hybrid: error: my_damper.toml: [friction.H] `sliding` is -0.5: a friction level must be > 0\n"
         )
+
+
+def test_show_draws_the_network_of_a_network_file_and_refuses_a_mode_level_model(tmp_path, capsys):
+    png = tmp_path / "net.png"
+    code, out, err = run(["show", str(MODEL_DIR / "isolator_base.toml"), "--out", str(png)], capsys)
+    assert code == 0, err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
+    assert f"wrote {png}" in err
+    code, out, err = run(["show", "coulomb", "--out", str(tmp_path / "c.png")], capsys)
+    assert code == 2 and out == ""
+    assert err == "hybrid: error: model `coulomb` is not a network file: there is no network to draw\n"
+    assert not (tmp_path / "c.png").exists()
