@@ -36,7 +36,9 @@ elements glue their ends into *clusters* that move rigidly:
   (sum of its masses); its massless nodes are differential variables with the
   cluster's velocity;
 * a massless node in no cluster is a slave (algebraic) variable fixed by its
-  force balance, as the hand-written absorber's ``u``.
+  force balance, as the hand-written absorber's ``u``; in a cluster of massless
+  nodes only, the first node is the slave of the cluster's balance and the
+  others move with the cluster's velocity.
 
 The force a sticking element carries follows from cutting the cluster at the
 element (the cluster is a tree: loops of friction elements are refused). The
@@ -479,11 +481,6 @@ def _check_topology(net: Network) -> None:
                     f"[springs.{e.name}] joins two massless nodes (`{e.a}`, `{e.b}`): not supported (their "
                     "balances would be coupled); replace the two springs in series by one, or give a node a mass"
                 )
-            if e.kind == "friction" and e.a in net.nodes and e.b in net.nodes:
-                raise ModelError(
-                    f"[friction.{e.name}] joins two massless nodes (`{e.a}`, `{e.b}`): while it sticks neither "
-                    "a mass nor the ground fixes them; not supported"
-                )
         if not touching[u]:
             raise ModelError(f"[nodes.{u}] has no connection: its position is undetermined")
         if not springs:
@@ -623,12 +620,14 @@ class _Mode:
             return self.ground_vel()
         if r is not None:
             return self.net.masses[r][1]
-        # a free massless node: the time derivative of its force balance (springs to masses/ground only)
-        springs = [e for e in self.touching[p] if e.kind == "spring"]
+        # a massless cluster (a free node, or nodes glued by sticking elements): the time derivative
+        # of its force balance; its springs lead to masses or the ground (springs between nodes are refused)
+        c = self.cluster[p]
+        springs = [e for q in sorted(c, key=self.order.__getitem__) for e in self.touching[q] if e.kind == "spring"]
+        others = [e.b if e.a in c else e.a for e in springs]
         if len(springs) == 1:
-            e = springs[0]
-            return self.vel(e.b if e.a == p else e.a)
-        num = _join([f"+{_times(e.coef, self.vel(e.b if e.a == p else e.a))}" for e in springs])
+            return self.vel(others[0])
+        num = _join([f"+{_times(e.coef, self.vel(q))}" for e, q in zip(springs, others, strict=True)])
         den = _join([f"+{e.coef}" for e in springs])
         return f"({num})/({den})"
 
@@ -718,8 +717,8 @@ class _Mode:
         group = side_a if use_a else side_b
         ext = _join(self.external(group, skip=e))
         m = self.mass_of(group)
-        acc = self.acceleration(e.a)
-        inertia = _times(" + ".join(m), acc) if m and acc != "0" else None
+        acc = self.acceleration(e.a) if m else "0"
+        inertia = _times(" + ".join(m), acc) if acc != "0" else None
         if use_a:
             return f"{inertia} - ({ext})" if inertia else f"-({ext})"
         return f"{ext} - {inertia}" if inertia else ext
@@ -739,11 +738,13 @@ class _Mode:
                 der[x] = self.ground_vel()
             der[v] = self.acceleration(x)
         for u in self.net.nodes:
-            r = self.rep(u)
-            if r is None:
-                ext = _join(self.external(frozenset({u})))
-                alg[u] = f"-({ext})"
-            else:
+            c = self.cluster[u]
+            if self.rep(u) is not None:
+                der[u] = self.vel(u)
+            elif u == min(c, key=self.order.__getitem__):
+                # the first node of a massless cluster: a slave variable fixed by the cluster's balance
+                alg[u] = f"-({_join(self.external(c))})"
+            else:  # the others keep their offsets to it: they move with the cluster's velocity
                 der[u] = self.vel(u)
         return der, alg
 

@@ -421,3 +421,53 @@ def test_energy_balance_of_the_shipped_networks(name):
     residual = np.max(np.abs(tr["W"] - tr["D"] - (tr["E"] - tr["E"][0])))
     scale = np.max(np.abs(tr["W"])) + np.max(np.abs(tr["D"]))
     assert _record("energy balance W = D + dE, largest relative residual", residual / scale) <= 1e-7
+
+
+def test_friction_between_two_massless_nodes_equals_the_springs_merged_in_series():
+    """A chain spring c2 - friction R - spring c3 carries one force: it equals spring c2 c3/(c2 + c3) - R."""
+    from hybrid import system_from_dict
+
+    common = {
+        "params": ("m", "c1", "c2", "c3", "cs", "R", "F", "Omega"),
+        "masses": {"x": {"mass": "m", "velocity": "v"}},
+        "forces": {"force": {"on": "x", "amplitude": "F", "frequency": "Omega"}},
+    }
+    chain = system_from_dict(
+        _network(
+            **common,
+            nodes={"u1": {}, "u2": {}},
+            springs={
+                "k1": {"between": ["ground", "x"], "stiffness": "c1"},
+                "k2": {"between": ["x", "u1"], "stiffness": "c2"},
+                "k3": {"between": ["u2", "ground"], "stiffness": "c3"},
+            },
+            friction={"H": {"between": ["u1", "u2"], "sliding": "R"}},
+        )
+    )
+    merged = system_from_dict(
+        _network(
+            **common,
+            nodes={"u": {}},
+            springs={
+                "k1": {"between": ["ground", "x"], "stiffness": "c1"},
+                "ks": {"between": ["x", "u"], "stiffness": "cs"},
+            },
+            friction={"H": {"between": ["u", "ground"], "sliding": "R"}},
+        )
+    )
+    # while the element sticks u1 is the slave of the pair's balance and u2 keeps its offset to it
+    assert chain.mode("stick").algebraic.keys() == {"u1"} and "u2" in chain.mode("stick").derivatives
+    assert chain.mode("slip+").algebraic.keys() == {"u1", "u2"}
+    p = {"m": 1.0, "c1": 1.0, "c2": 0.6, "c3": 1.5, "R": 0.2, "F": 0.3, "Omega": 1.1}
+    p["cs"] = p["c2"] * p["c3"] / (p["c2"] + p["c3"])
+    T = 2 * math.pi / p["Omega"]
+    t = np.linspace(0.0, 10 * T, 1001)
+    a = simulate(chain, p, (0.0, 10 * T), {n: 0.0 for n in chain.variable_names}, t_eval=t, options=TIGHT)
+    b = simulate(merged, p, (0.0, 10 * T), {n: 0.0 for n in merged.variable_names}, t_eval=t, options=TIGHT)
+    assert len(a.events) >= 10
+    assert [(e.source, e.target) for e in a.events] == [(e.source, e.target) for e in b.events]
+    dt = max(abs(e.t - f.t) for e, f in zip(a.events, b.events, strict=True))
+    assert _record("friction between massless nodes vs merged springs: switch times [s]", dt) <= 1e-7
+    for name in ("x", "v", "f_H", "w_H", "W", "D"):
+        d = np.max(np.abs(a[name] - b[name])) / np.max(np.abs(b[name]))
+        assert _record("friction between massless nodes vs merged springs: relative", d) <= 1e-7, name
