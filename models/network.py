@@ -188,6 +188,21 @@ class Network:
         """The friction elements, in file order."""
         return tuple(e for e in self.elements if e.kind == "friction")
 
+    @property
+    def node_velocities(self) -> dict[str, str]:
+        """Node -> name of its velocity variable, for the nodes joined to another node by a spring.
+
+        Their force balances are coupled, so their velocities (needed for the relative velocities of
+        sliding elements) are slave variables fixed by the time derivative of those balances.
+        """
+        coupled = {
+            p
+            for e in self.elements
+            if e.kind == "spring" and e.a in self.nodes and e.b in self.nodes
+            for p in (e.a, e.b)
+        }
+        return {u: f"vel_{u}" for u in self.nodes if u in coupled}
+
 
 def _short(value: object, width: int = 60) -> str:
     text = repr(value)
@@ -476,11 +491,6 @@ def _check_topology(net: Network) -> None:
                     f"[dampers.{e.name}] touches the massless node `{u}`: its position would follow a "
                     "first-order equation, which this builder does not derive; attach dampers to masses or the ground"
                 )
-            if e.kind == "spring" and e.a in net.nodes and e.b in net.nodes:
-                raise ModelError(
-                    f"[springs.{e.name}] joins two massless nodes (`{e.a}`, `{e.b}`): not supported (their "
-                    "balances would be coupled); replace the two springs in series by one, or give a node a mass"
-                )
         if not touching[u]:
             raise ModelError(f"[nodes.{u}] has no connection: its position is undetermined")
         if not springs:
@@ -488,6 +498,31 @@ def _check_topology(net: Network) -> None:
             raise ModelError(
                 f"[nodes.{u}]: no spring is attached, so its position is undetermined while its friction "
                 f"element(s) {fr} slip"
+            )
+    # nodes joined by springs form groups whose balances are coupled: each needs a spring to a mass or
+    # the ground, else the group floats while its friction elements slip
+    seen: set[str] = set()
+    for u in net.nodes:
+        if u in seen:
+            continue
+        group, stack, anchored = {u}, [u], False
+        while stack:
+            p = stack.pop()
+            for e in touching[p]:
+                if e.kind != "spring":
+                    continue
+                q = e.b if e.a == p else e.a
+                if q not in net.nodes:
+                    anchored = True
+                elif q not in group:
+                    group.add(q)
+                    stack.append(q)
+        seen |= group
+        if not anchored:
+            names = ", ".join(q for q in net.nodes if q in group)
+            raise ModelError(
+                f"[nodes.{u}]: the massless nodes {names} are joined by springs only to each other, so their "
+                "positions are undetermined while their friction elements slip; attach one to a mass or the ground"
             )
 
 
@@ -623,7 +658,10 @@ class _Mode:
         # a massless cluster (a free node, or nodes glued by sticking elements): the time derivative
         # of its force balance; its springs lead to masses or the ground (springs between nodes are refused)
         c = self.cluster[p]
-        springs = [e for q in sorted(c, key=self.order.__getitem__) for e in self.touching[q] if e.kind == "spring"]
+        named = self.velocity_variable(c)
+        if named is not None:
+            return named
+        springs = self.leaving_springs(c)
         others = [e.b if e.a in c else e.a for e in springs]
         if len(springs) == 1:
             return self.vel(others[0])
@@ -631,10 +669,30 @@ class _Mode:
         den = _join([f"+{e.coef}" for e in springs])
         return f"({num})/({den})"
 
+    def velocity_variable(self, c: frozenset[str]) -> str | None:
+        """The velocity variable of a cluster's first node that has one (None if none has)."""
+        named = self.net.node_velocities
+        for q in sorted(c, key=self.order.__getitem__):
+            if q in named:
+                return named[q]
+        return None
+
+    def leaving_springs(self, c: frozenset[str]) -> list[Element]:
+        """The springs from a cluster's members to points outside it, in file order of the points."""
+        return [
+            e
+            for q in sorted(c, key=self.order.__getitem__)
+            for e in self.touching[q]
+            if e.kind == "spring" and not (e.a in c and e.b in c)
+        ]
+
     def diff(self, q: str, p: str, what: str) -> str:
         """``what(q) - what(p)`` as text (positions or velocities)."""
-        f = self.pos if what == "pos" else self.vel
-        fq, fp = f(q), f(p)
+        if what == "vel_of":  # q is already a velocity (a variable's name)
+            fq, fp = q, self.vel(p)
+        else:
+            f = self.pos if what == "pos" else self.vel
+            fq, fp = f(q), f(p)
         if fp == "0":
             return fq
         if fq == "0":
@@ -746,6 +804,19 @@ class _Mode:
                 alg[u] = f"-({_join(self.external(c))})"
             else:  # the others keep their offsets to it: they move with the cluster's velocity
                 der[u] = self.vel(u)
+        for u, vu in self.net.node_velocities.items():
+            c = self.cluster[u]
+            first = self.velocity_variable(c)
+            if self.rep(u) is not None:
+                alg[vu] = f"{vu} - {_paren(self.vel(u))}"
+            elif vu != first:
+                alg[vu] = f"{vu} - {first}"
+            else:  # the time derivative of the cluster's balance
+                terms = [
+                    f"+{_times(e.coef, self.diff(vu, e.b if e.a in c else e.a, 'vel_of'))}"
+                    for e in self.leaving_springs(c)
+                ]
+                alg[vu] = _join(terms)
         return der, alg
 
 
@@ -784,9 +855,15 @@ def network_model(net: Network) -> dict:
             "unit": "m",
             "description": f"displacement of the massless node {u}" + (f" ({desc})" if desc else ""),
         }
+    for u, vu in net.node_velocities.items():
+        variables[vu] = {
+            "unit": "m/s",
+            "description": f"velocity of the massless node {u} (a slave variable)",
+        }
     variables["W"] = {"unit": "J", "description": "work done by the excitations"}
     variables["D"] = {"unit": "J", "description": "energy dissipated by friction and dampers"}
     generated = {"W", "D", "E"} | {f"f_{e.name}" for e in friction} | {f"w_{e.name}" for e in friction}
+    generated |= set(net.node_velocities.values())
     if net.base:
         generated |= {"y_base", "dy_base", "ddy_base"}
     taken = set(net.masses) | {v for _, v, _ in net.masses.values()} | set(net.nodes) | set(net.parameters)

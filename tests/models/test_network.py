@@ -471,3 +471,109 @@ def test_friction_between_two_massless_nodes_equals_the_springs_merged_in_series
     for name in ("x", "v", "f_H", "w_H", "W", "D"):
         d = np.max(np.abs(a[name] - b[name])) / np.max(np.abs(b[name]))
         assert _record("friction between massless nodes vs merged springs: relative", d) <= 1e-7, name
+
+
+def test_springs_in_series_through_massless_nodes_equal_one_spring():
+    """x -c2- u1 -c4- u2 -]R[- ground equals x -cs- u -]R[- ground with cs = c2 c4/(c2 + c4): the coupled
+    balances of u1, u2 and their velocities (slave variables vel_u1, vel_u2) against the merged spring."""
+    from hybrid import system_from_dict
+
+    common = {
+        "params": ("m", "c1", "c2", "c4", "cs", "R", "F", "Omega"),
+        "masses": {"x": {"mass": "m", "velocity": "v"}},
+        "forces": {"force": {"on": "x", "amplitude": "F", "frequency": "Omega"}},
+    }
+    chain = system_from_dict(
+        _network(
+            **common,
+            nodes={"u1": {}, "u2": {}},
+            springs={
+                "k1": {"between": ["ground", "x"], "stiffness": "c1"},
+                "k2": {"between": ["x", "u1"], "stiffness": "c2"},
+                "k4": {"between": ["u1", "u2"], "stiffness": "c4"},
+            },
+            friction={"H": {"between": ["u2", "ground"], "sliding": "R"}},
+        )
+    )
+    merged = system_from_dict(
+        _network(
+            **common,
+            nodes={"u": {}},
+            springs={
+                "k1": {"between": ["ground", "x"], "stiffness": "c1"},
+                "ks": {"between": ["x", "u"], "stiffness": "cs"},
+            },
+            friction={"H": {"between": ["u", "ground"], "sliding": "R"}},
+        )
+    )
+    assert chain.variable_names == ("x", "v", "u1", "u2", "vel_u1", "vel_u2", "W", "D")
+    p = {"m": 1.0, "c1": 1.0, "c2": 0.6, "c4": 1.5, "R": 0.2, "F": 0.3, "Omega": 1.1}
+    p["cs"] = p["c2"] * p["c4"] / (p["c2"] + p["c4"])
+    T = 2 * math.pi / p["Omega"]
+    t = np.linspace(0.0, 10 * T, 1001)
+    a = simulate(chain, p, (0.0, 10 * T), {n: 0.0 for n in chain.variable_names}, t_eval=t, options=TIGHT)
+    b = simulate(merged, p, (0.0, 10 * T), {n: 0.0 for n in merged.variable_names}, t_eval=t, options=TIGHT)
+    assert len(a.events) >= 10
+    assert [(e.source, e.target) for e in a.events] == [(e.source, e.target) for e in b.events]
+    dt = max(abs(e.t - f.t) for e, f in zip(a.events, b.events, strict=True))
+    assert _record("springs in series through nodes vs one spring: switch times [s]", dt) <= 1e-7
+    for name in ("x", "v", "f_H", "w_H", "W", "D"):
+        d = np.max(np.abs(a[name] - b[name])) / np.max(np.abs(b[name]))
+        assert _record("springs in series through nodes vs one spring: relative", d) <= 1e-7, name
+    # the slave velocity of the node next to the contact is the contact's sliding velocity
+    assert np.max(np.abs(a["vel_u2"] + a["w_H"])) <= 1e-12 * np.max(np.abs(a["w_H"]))
+
+
+def test_two_sequential_elements_in_series_reduce_to_one_when_the_second_never_slips():
+    """ground -[R1 || c3]- u1 -[R2 || c4]- u2 -c2- x: with R2 out of reach, u1 and u2 move as one node
+    and the network is `sequential.toml`; with both able to slip, the energy balance holds."""
+    from hybrid import system_from_dict
+
+    data = _network(
+        params=("m", "c1", "c2", "c3", "c4", "R", "R2", "F", "Omega"),
+        masses={"x": {"mass": "m", "velocity": "v"}},
+        nodes={"u1": {}, "u2": {}},
+        springs={
+            "k1": {"between": ["ground", "x"], "stiffness": "c1"},
+            "k2": {"between": ["x", "u2"], "stiffness": "c2"},
+            "k3": {"between": ["ground", "u1"], "stiffness": "c3"},
+            "k4": {"between": ["u1", "u2"], "stiffness": "c4"},
+        },
+        friction={
+            "H": {"between": ["ground", "u1"], "sliding": "R"},
+            "B": {"between": ["u1", "u2"], "sliding": "R2"},
+        },
+        forces={"force": {"on": "x", "amplitude": "F", "frequency": "Omega"}},
+    )
+    two = system_from_dict(data)
+    one = _net("sequential")
+    p = one.preset("standard", F=0.4)
+    T = 2 * math.pi / p["Omega"]
+    t = np.linspace(0.0, 10 * T, 1001)
+    a = simulate(
+        two,
+        dict(p, c4=0.3, R2=1e3),
+        (0.0, 10 * T),
+        dict.fromkeys(two.variable_names, 0.0),
+        t_eval=t,
+        options=TIGHT,
+    )
+    b = simulate(one, p, (0.0, 10 * T), dict.fromkeys(one.variable_names, 0.0), t_eval=t, options=TIGHT)
+    assert len(b.events) >= 10
+    assert [e.target for e in a.events] == [f"{e.target}_stick" for e in b.events]
+    dt = max(abs(e.t - f.t) for e, f in zip(a.events, b.events, strict=True))
+    assert _record("two sequential elements, second stuck, vs sequential: switch times [s]", dt) <= 1e-7
+    for mine, theirs in (("x", "x"), ("v", "v"), ("u1", "u"), ("u2", "u"), ("f_H", "f_H"), ("w_H", "w_H")):
+        d = np.max(np.abs(a[mine] - b[theirs])) / np.max(np.abs(b[theirs]))
+        assert _record("two sequential elements, second stuck, vs sequential: relative", d) <= 1e-7, mine
+    # both slipping: nine modes visited in part, the energy balance W = D + change of E holds
+    q = dict(p, c4=0.3, R=0.3, R2=0.15)
+    tr = simulate(
+        two, q, (0.0, 20 * T), dict.fromkeys(two.variable_names, 0.0), samples_per_period=50, options=TIGHT
+    )
+    assert {"slip+_slip+", "stick_slip-", "slip-_slip-"} <= set(tr.mode)
+    residual = np.max(np.abs(tr["W"] - tr["D"] - (tr["E"] - tr["E"][0])))
+    assert (
+        _record("energy balance W = D + dE, largest relative residual", residual / np.max(np.abs(tr["W"])))
+        <= 1e-7
+    )

@@ -188,6 +188,20 @@ REFUSALS = [
         r"\[dampers\.d\] touches the massless node `u`",
     ),
     (
+        "nodes floating on springs",
+        {
+            "nodes": {"u": {}, "p": {}, "q": {}},
+            "springs": {**TWO_SPRINGS, "kpq": {"between": ["p", "q"], "stiffness": "c1"}},
+            "friction": {
+                "H": {"between": ["u", "x2"], "sliding": "R"},
+                "G": {"between": ["p", "x1"], "sliding": "R"},
+                "J": {"between": ["q", "ground"], "sliding": "R"},
+            },
+        },
+        r"mine\.toml: \[nodes\.p\]: the massless nodes p, q are joined by springs only to each other, so their "
+        r"positions are undetermined while their friction elements slip",
+    ),
+    (
         "name taken twice",
         {"nodes": {"u": {}, "k1": {}}},
         r"\[springs\.k1\]: the name `k1` is already \[nodes\.k1\]",
