@@ -38,7 +38,9 @@ elements glue their ends into *clusters* that move rigidly:
 * a massless node in no cluster is a slave (algebraic) variable fixed by its
   force balance, as the hand-written absorber's ``u``; in a cluster of massless
   nodes only, the first node is the slave of the cluster's balance and the
-  others move with the cluster's velocity.
+  others move with the cluster's velocity; nodes joined to each other by
+  springs have coupled balances and their velocities are slave variables
+  ``vel_U`` (the time derivative of the balances).
 
 The force a sticking element carries follows from cutting the cluster at the
 element (the cluster is a tree: loops of friction elements are refused). The
@@ -656,7 +658,8 @@ class _Mode:
         if r is not None:
             return self.net.masses[r][1]
         # a massless cluster (a free node, or nodes glued by sticking elements): the time derivative
-        # of its force balance; its springs lead to masses or the ground (springs between nodes are refused)
+        # of its force balance (a cluster with a node joined by a spring to another node has a velocity
+        # variable instead, above)
         c = self.cluster[p]
         named = self.velocity_variable(c)
         if named is not None:
