@@ -10,7 +10,8 @@ parts of a one-dimensional mechanism:
 * ``[nodes.U]``: a massless node (connecting point) of displacement ``U`` [m];
 * ``ground``: the fixed point (or the moving base, with ``[base]``);
 * ``[springs.NAME]``: ``between = [A, B]``, ``stiffness`` [N/m];
-* ``[dampers.NAME]``: ``between = [A, B]``, ``coefficient`` [N s/m];
+* ``[dampers.NAME]``: ``between = [A, B]``, ``coefficient`` [N s/m] (not
+  between two massless nodes);
 * ``[friction.NAME]``: a Coulomb friction element, ``between = [A, B]``,
   ``sliding`` level R [N] (> 0), optional ``static`` level R_s >= R [N]:
   the element sticks while the force it must carry stays inside
@@ -40,7 +41,8 @@ elements glue their ends into *clusters* that move rigidly:
   nodes only, the first node is the slave of the cluster's balance and the
   others move with the cluster's velocity; nodes joined to each other by
   springs have coupled balances and their velocities are slave variables
-  ``vel_U`` (the time derivative of the balances).
+  ``vel_U`` (the time derivative of the balances); a node with a damper is
+  differential, ``U' = vel_U``, with ``vel_U`` fixed by its balance.
 
 The force a sticking element carries follows from cutting the cluster at the
 element (the cluster is a tree: loops of friction elements are refused). The
@@ -192,15 +194,18 @@ class Network:
 
     @property
     def node_velocities(self) -> dict[str, str]:
-        """Node -> name of its velocity variable, for the nodes joined to another node by a spring.
+        """Node -> name of its velocity variable, for the nodes joined to another node by a spring and
+        the nodes with a damper.
 
-        Their force balances are coupled, so their velocities (needed for the relative velocities of
-        sliding elements) are slave variables fixed by the time derivative of those balances.
+        The balances of nodes joined by springs are coupled, so their velocities (needed for the
+        relative velocities of sliding elements) are slave variables fixed by the time derivative of
+        those balances; a damper puts the velocity into the balance itself, which then fixes it (the
+        node's position is then differential).
         """
         coupled = {
             p
             for e in self.elements
-            if e.kind == "spring" and e.a in self.nodes and e.b in self.nodes
+            if (e.kind == "spring" and e.a in self.nodes and e.b in self.nodes) or e.kind == "damper"
             for p in (e.a, e.b)
         }
         return {u: f"vel_{u}" for u in self.nodes if u in coupled}
@@ -486,20 +491,20 @@ def _check_topology(net: Network) -> None:
         )
     _check_friction_loops(net)
     for u in net.nodes:
-        springs = [e for e in touching[u] if e.kind == "spring"]
+        springs = [e for e in touching[u] if e.kind in ("spring", "damper")]
         for e in touching[u]:
-            if e.kind == "damper":
+            if e.kind == "damper" and e.a in net.nodes and e.b in net.nodes:
                 raise ModelError(
-                    f"[dampers.{e.name}] touches the massless node `{u}`: its position would follow a "
-                    "first-order equation, which this builder does not derive; attach dampers to masses or the ground"
+                    f"[dampers.{e.name}] joins two massless nodes (`{e.a}`, `{e.b}`): not supported (their "
+                    "velocities would be undetermined); attach dampers to a mass or the ground"
                 )
         if not touching[u]:
             raise ModelError(f"[nodes.{u}] has no connection: its position is undetermined")
         if not springs:
             fr = ", ".join(e.name for e in touching[u])
             raise ModelError(
-                f"[nodes.{u}]: no spring is attached, so its position is undetermined while its friction "
-                f"element(s) {fr} slip"
+                f"[nodes.{u}]: no spring or damper is attached, so its position is undetermined while its "
+                f"friction element(s) {fr} slip"
             )
     # nodes joined by springs form groups whose balances are coupled: each needs a spring to a mass or
     # the ground, else the group floats while its friction elements slip
@@ -511,10 +516,10 @@ def _check_topology(net: Network) -> None:
         while stack:
             p = stack.pop()
             for e in touching[p]:
-                if e.kind != "spring":
+                if e.kind == "friction":
                     continue
                 q = e.b if e.a == p else e.a
-                if q not in net.nodes:
+                if q not in net.nodes:  # a spring or damper to a mass or the ground
                     anchored = True
                 elif q not in group:
                     group.add(q)
@@ -680,6 +685,10 @@ class _Mode:
                 return named[q]
         return None
 
+    def damped(self, c: frozenset[str]) -> bool:
+        """Does a damper join a member of the massless cluster ``c`` to a point outside it?"""
+        return any(e.kind == "damper" and not (e.a in c and e.b in c) for q in c for e in self.touching[q])
+
     def leaving_springs(self, c: frozenset[str]) -> list[Element]:
         """The springs from a cluster's members to points outside it, in file order of the points."""
         return [
@@ -800,7 +809,7 @@ class _Mode:
             der[v] = self.acceleration(x)
         for u in self.net.nodes:
             c = self.cluster[u]
-            if self.rep(u) is not None:
+            if self.rep(u) is not None or self.damped(c):
                 der[u] = self.vel(u)
             elif u == min(c, key=self.order.__getitem__):
                 # the first node of a massless cluster: a slave variable fixed by the cluster's balance
@@ -814,6 +823,8 @@ class _Mode:
                 alg[vu] = f"{vu} - {_paren(self.vel(u))}"
             elif vu != first:
                 alg[vu] = f"{vu} - {first}"
+            elif self.damped(c):  # the cluster's balance, which its dampers make depend on its velocity
+                alg[vu] = f"-({_join(self.external(c))})"
             else:  # the time derivative of the cluster's balance
                 terms = [
                     f"+{_times(e.coef, self.diff(vu, e.b if e.a in c else e.a, 'vel_of'))}"
@@ -821,6 +832,18 @@ class _Mode:
                 ]
                 alg[vu] = _join(terms)
         return der, alg
+
+
+def _velocity_difference(net: Network, q: str, p: str) -> str:
+    """``v_q - v_p`` in every mode alike (a damper's ends: masses, the ground, nodes with a velocity variable)."""
+
+    def vel(r: str) -> str:
+        if r == GROUND:
+            return "dy_base" if net.base else "0"
+        return net.masses[r][1] if r in net.masses else net.node_velocities[r]
+
+    vq, vp = vel(q), vel(p)
+    return vq if vp == "0" else (f"-{vp}" if vq == "0" else f"{vq} - {vp}")
 
 
 def _mode_name(states: tuple[str, ...]) -> str:
@@ -909,7 +932,7 @@ def network_model(net: Network) -> dict:
             if e.kind == "spring":
                 power.append(f"-{_times(e.coef, probe.diff(q, GROUND, 'pos'))}*dy_base")
             elif e.kind == "damper":
-                power.append(f"-{_times(e.coef, '(' + probe.diff(q, GROUND, 'vel') + ')')}*dy_base")
+                power.append(f"-{_times(e.coef, _velocity_difference(net, q, GROUND))}*dy_base")
             else:
                 sign = "-" if e.a == GROUND else "+"
                 power.append(f"{sign}f_{e.name}*dy_base")
@@ -917,7 +940,7 @@ def network_model(net: Network) -> dict:
     dissipation = [f"+f_{e.name}*w_{e.name}" for e in friction]
     for e in net.elements:
         if e.kind == "damper":
-            dissipation.append(f"+{_paren(e.coef)}*({probe.diff(e.b, e.a, 'vel')})**2")
+            dissipation.append(f"+{_paren(e.coef)}*({_velocity_difference(net, e.b, e.a)})**2")
     equations["D"] = _join(dissipation)
 
     modes: dict[str, dict] = {}

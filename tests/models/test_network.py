@@ -577,3 +577,79 @@ def test_two_sequential_elements_in_series_reduce_to_one_when_the_second_never_s
         _record("energy balance W = D + dE, largest relative residual", residual / np.max(np.abs(tr["W"])))
         <= 1e-7
     )
+
+
+def test_maxwell_element_through_a_massless_node_is_the_linear_flow():
+    """x -k2- u -c- ground (a Maxwell element) beside k1: u is differential (u' = vel_u from the node's
+    balance k2 (x - u) = c u'), against the matrix exponential of the 3-state linear system."""
+    from scipy.linalg import expm
+
+    from hybrid import system_from_dict
+
+    system = system_from_dict(
+        _network(
+            params=("m", "k1", "k2", "c"),
+            masses={"x": {"mass": "m", "velocity": "v"}},
+            nodes={"u": {}},
+            springs={
+                "s1": {"between": ["ground", "x"], "stiffness": "k1"},
+                "s2": {"between": ["x", "u"], "stiffness": "k2"},
+            },
+            dampers={"d": {"between": ["u", "ground"], "coefficient": "c"}},
+        )
+    )
+    mode = system.mode("free")
+    assert set(mode.algebraic) == {"vel_u"} and mode.derivatives["u"] == "vel_u"
+    p = {"m": 1.0, "k1": 1.0, "k2": 2.0, "c": 0.7}
+    m, k1, k2, c = p["m"], p["k1"], p["k2"], p["c"]
+    A = np.array([[0.0, 1.0, 0.0], [-(k1 + k2) / m, 0.0, k2 / m], [k2 / c, 0.0, -k2 / c]])  # (x, v, u)
+    z0 = np.array([1.0, 0.0, 0.0])
+    t = np.linspace(0.0, 20.0, 201)
+    exact = np.array([expm(A * s) @ z0 for s in t])
+    start = {"x": 1.0, "v": 0.0, "u": 0.0, "vel_u": 0.0, "W": 0.0, "D": 0.0}
+    tr = simulate(system, p, (0.0, 20.0), start, t_eval=t, options=TIGHT)
+    d = max(np.max(np.abs(tr[n] - exact[:, k])) for k, n in enumerate(("x", "v", "u")))
+    assert _record("Maxwell element vs matrix exponential, largest difference (x0 = 1 m)", d) <= 1e-8
+    assert np.max(np.abs(tr["vel_u"] - k2 * (exact[:, 0] - exact[:, 2]) / c)) <= 1e-7
+    # the damper dissipates what the springs and the mass lose
+    assert np.max(np.abs(tr["D"] - (tr["E"][0] - tr["E"]))) <= 1e-8 * tr["E"][0]
+
+
+def test_damped_node_with_a_friction_contact_keeps_the_energy_balance():
+    """x -k2- u, u -c- ground, u -]R[- ground: sticking holds u, slipping lets the damper set its speed."""
+    from hybrid import system_from_dict
+
+    system = system_from_dict(
+        _network(
+            params=("m", "k1", "k2", "c", "R", "F", "Omega"),
+            masses={"x": {"mass": "m", "velocity": "v"}},
+            nodes={"u": {}},
+            springs={
+                "s1": {"between": ["ground", "x"], "stiffness": "k1"},
+                "s2": {"between": ["x", "u"], "stiffness": "k2"},
+            },
+            dampers={"d": {"between": ["u", "ground"], "coefficient": "c"}},
+            friction={"H": {"between": ["ground", "u"], "sliding": "R"}},
+            forces={"force": {"on": "x", "amplitude": "F", "frequency": "Omega"}},
+        )
+    )
+    p = {"m": 1.0, "k1": 1.0, "k2": 2.0, "c": 0.7, "R": 0.3, "F": 0.5, "Omega": 1.3}
+    T = 2 * math.pi / p["Omega"]
+    tr = simulate(
+        system,
+        p,
+        (0.0, 20 * T),
+        dict.fromkeys(system.variable_names, 0.0),
+        samples_per_period=50,
+        options=TIGHT,
+    )
+    assert {"stick", "slip+", "slip-"} <= set(tr.mode) and len(tr.events) >= 10
+    # while it slides, the node's balance k2 (x - u) - c u' -+ R = 0 fixes u' = w_H
+    slipping = tr.mode != "stick"
+    balance = p["k2"] * (tr["x"] - tr["u"]) - p["c"] * tr["w_H"] - tr["f_H"]
+    assert np.max(np.abs(balance[slipping])) <= 1e-9
+    residual = np.max(np.abs(tr["W"] - tr["D"] - (tr["E"] - tr["E"][0])))
+    assert (
+        _record("energy balance W = D + dE, largest relative residual", residual / np.max(np.abs(tr["W"])))
+        <= 1e-7
+    )

@@ -130,7 +130,8 @@ REFUSALS = [
     (
         "undetermined node",
         {"springs": {"k1": TWO_SPRINGS["k1"], "k4": {"between": ["x1", "x2"], "stiffness": "c2"}}},
-        r"mine\.toml: \[nodes\.u\]: no spring is attached, so its position is undetermined while its friction element\(s\) H slip",
+        r"mine\.toml: \[nodes\.u\]: no spring or damper is attached, so its position is undetermined while its "
+        r"friction element\(s\) H slip",
     ),
     (
         "unconnected mass",
@@ -183,9 +184,13 @@ REFUSALS = [
         r"\[forces\.force\] `on` = 'u': a force acts on a mass",
     ),
     (
-        "damper on a node",
-        {"dampers": {"d": {"between": ["u", "ground"], "coefficient": "c1"}}},
-        r"\[dampers\.d\] touches the massless node `u`",
+        "damper between two nodes",
+        {
+            "nodes": {"u": {}, "p": {}},
+            "springs": {**TWO_SPRINGS, "kp": {"between": ["x1", "p"], "stiffness": "c1"}},
+            "dampers": {"d": {"between": ["u", "p"], "coefficient": "c1"}},
+        },
+        r"\[dampers\.d\] joins two massless nodes \(`u`, `p`\): not supported",
     ),
     (
         "nodes floating on springs",
