@@ -5,7 +5,7 @@ A *network file* is a model file (TOML) with ``format = "network"`` in its
 parts of a one-dimensional mechanism:
 
 * ``[masses.X]``: a point mass whose displacement variable is ``X`` [m];
-  ``mass`` (expression of parameters) [kg], ``velocity`` (name of its
+  ``mass`` (a number > 0 or a parameter of domain positive) [kg], ``velocity`` (name of its
   velocity variable, default ``v_X``) [m/s], ``description``;
 * ``[nodes.U]``: a massless node (connecting point) of displacement ``U`` [m];
 * ``ground``: the fixed point (or the moving base, with ``[base]``);
@@ -269,25 +269,24 @@ def _coef(value: object, params: Mapping[str, str], where: str) -> str:
     return value.strip()
 
 
-def _level(value: str, params: Mapping[str, str], where: str) -> None:
-    """A friction level must be a positive number or a parameter whose domain is positive."""
+def _positive(value: str, params: Mapping[str, str], where: str, what: str = "a friction level") -> None:
+    """``value`` must be a number > 0 or a parameter whose domain is positive (so no run can break it)."""
     try:
         number = float(value)
     except ValueError:
         number = None
     if number is not None:
         if not number > 0:
-            raise ModelError(f"{where} is {number!r}: a friction level must be > 0")
+            raise ModelError(f"{where} is {number!r}: {what} must be > 0")
         return
     if value not in params:
         raise ModelError(
-            f"{where} = {value!r}: a friction level must be a number > 0 or a parameter whose domain is "
+            f"{where} = {value!r}: {what} must be a number > 0 or a parameter whose domain is "
             "positive (it cannot be checked at run time otherwise)"
         )
     if params[value] != "positive":
         raise ModelError(
-            f"{where}: parameter `{value}` has domain {params[value]!r}; a friction level must have "
-            'domain = "positive"'
+            f'{where}: parameter `{value}` has domain {params[value]!r}; {what} must have domain = "positive"'
         )
 
 
@@ -367,7 +366,9 @@ def read_network(data: Mapping) -> Network:
         desc = spec.get("description", "")
         if not isinstance(desc, str):
             raise ModelError(f"{where} `description` must be a string")
-        masses[x] = (_coef(spec["mass"], params, f"{where} `mass`"), v, desc)
+        mass = _coef(spec["mass"], params, f"{where} `mass`")
+        _positive(mass, params, f"{where} `mass`", "a mass")
+        masses[x] = (mass, v, desc)
     nodes: dict[str, str] = {}
     for u, spec in _table(data, "nodes").items():
         where = f"[nodes.{_key(u)}]"
@@ -405,10 +406,10 @@ def read_network(data: Mapping) -> Network:
             coef = _coef(spec[coef_key[table]], params, f"{where} `{coef_key[table]}`")
             static = None
             if table == "friction":
-                _level(coef, params, f"{where} `sliding`")
+                _positive(coef, params, f"{where} `sliding`")
                 if "static" in spec:
                     static = _coef(spec["static"], params, f"{where} `static`")
-                    _level(static, params, f"{where} `static`")
+                    _positive(static, params, f"{where} `static`")
                     _check_static(coef, static, presets, where)
             elements.append(Element(kinds[table], name, ends[0], ends[1], coef, static))
     if len(elements) > MAX_ELEMENTS:
@@ -419,7 +420,7 @@ def read_network(data: Mapping) -> Network:
         where = f"[forces.{_key(name)}]"
         spec = _check_keys(spec, *_KEYS["forces"], where)
         claim(name, where)
-        if spec["on"] not in masses:
+        if not isinstance(spec["on"], str) or spec["on"] not in masses:
             raise ModelError(
                 f"{where} `on` = {_short(spec['on'])}: a force acts on a mass; masses: {', '.join(masses)}"
             )

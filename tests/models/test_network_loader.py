@@ -207,6 +207,21 @@ REFUSALS = [
         r"positions are undetermined while their friction elements slip",
     ),
     (
+        "zero mass",
+        {"masses": {**BASE["masses"], "x2": {"mass": 0, "velocity": "v2"}}},
+        r"mine\.toml: \[masses\.x2\] `mass` is 0\.0: a mass must be > 0",
+    ),
+    (
+        "mass of a real parameter",
+        {"masses": {**BASE["masses"], "x2": {"mass": "m2*2", "velocity": "v2"}}},
+        r"\[masses\.x2\] `mass` = 'm2\*2': a mass must be a number > 0 or a parameter whose domain is positive",
+    ),
+    (
+        "force on a list",
+        {"forces": {"force": {"on": ["x1"], "amplitude": "F", "frequency": "Omega"}}},
+        r"\[forces\.force\] `on` = \['x1'\]: a force acts on a mass",
+    ),
+    (
         "name taken twice",
         {"nodes": {"u": {}, "k1": {}}},
         r"\[springs\.k1\]: the name `k1` is already \[nodes\.k1\]",
