@@ -357,6 +357,13 @@ JUNK = st.one_of(
     st.floats(),
     st.integers(-5, 5),
 )
+#: Values of a type no field takes (unhashable ones included): half of the field replacements.
+STRUCTURED = st.one_of(
+    st.lists(st.sampled_from(["ground", "x1", "u", "x", 1]), max_size=3),
+    st.dictionaries(
+        st.sampled_from(["mass", "on", "between", "x"]), st.sampled_from(["x1", "1", "R"]), max_size=2
+    ),
+)
 POINTS = ["ground", "x1", "x2", "u", "x", "nope"]
 
 
@@ -364,13 +371,24 @@ POINTS = ["ground", "x1", "x2", "u", "x", "nope"]
 def edited_networks(draw) -> dict:
     data = copy.deepcopy(FUZZ_BASES[draw(st.sampled_from(NETWORKS))])
     for _ in range(draw(st.integers(1, 4))):
-        action = draw(st.sampled_from(["replace", "delete", "add_element", "drop_table"]))
+        action = draw(st.sampled_from(["replace", "replace_field", "delete", "add_element", "drop_table"]))
         tables = [k for k, v in data.items() if isinstance(v, dict)]
         if not tables:
             break
         table = draw(st.sampled_from(sorted(tables)))
         if action == "drop_table":
             del data[table]
+        elif action == "replace_field":  # a field of an element, mass, node or force
+            parts = [k for k in ("masses", "springs", "friction", "forces") if isinstance(data.get(k), dict)]
+            if not parts:
+                continue
+            table = draw(st.sampled_from(parts))
+            fields = [
+                (name, key) for name, spec in data[table].items() if isinstance(spec, dict) for key in spec
+            ]
+            if fields:
+                name, key = draw(st.sampled_from(sorted(fields)))
+                data[table][name][key] = draw(st.one_of(JUNK, STRUCTURED))
         elif action == "add_element":
             kind = draw(st.sampled_from(["springs", "dampers", "friction", "masses", "nodes", "forces"]))
             key = draw(st.sampled_from(["n1", "n2", "H", "k1", "x1", "u", "ground", "E"]))
@@ -480,3 +498,44 @@ def test_fuzz_network_files_as_text_give_a_model_or_a_clean_error(text):
             assert isinstance(system, HybridSystem)
             OUTCOMES["valid model (file)"] += 1
         assert time.perf_counter() - start < 5.0
+
+
+FIELD_JUNK = [
+    [],
+    ["x1"],
+    ["x1", "u", "x2"],
+    {},
+    {"a": 1},
+    0,
+    -1.5,
+    float("nan"),
+    True,
+    "",
+    "ground",
+    "nope",
+    "1e999",
+]
+
+
+@pytest.mark.parametrize("name", NETWORKS)
+def test_every_field_of_every_shipped_network_takes_junk_cleanly(name):
+    """Systematic: each field of each mass, element, force and [model]/[base] entry replaced by each junk value."""
+    base = FUZZ_BASES[name]
+    tried = 0
+    for table, content in base.items():
+        if not isinstance(content, dict) or table in ("parameters", "presets"):
+            continue
+        entries = [(k, v) for k, v in content.items() if isinstance(v, dict)] or [(None, content)]
+        for key, spec in entries:
+            for field in spec:
+                for junk in FIELD_JUNK:
+                    data = copy.deepcopy(base)
+                    target = data[table] if key is None else data[table][key]
+                    target[field] = copy.deepcopy(junk)
+                    try:
+                        system_from_dict(data)
+                    except ModelError as exc:
+                        assert str(exc)
+                    tried += 1
+    OUTCOMES["field replacements"] += tried
+    assert tried >= 100
