@@ -523,9 +523,11 @@ def test_every_field_of_every_shipped_network_takes_junk_cleanly(name):
     base = FUZZ_BASES[name]
     tried = 0
     for table, content in base.items():
-        if not isinstance(content, dict) or table in ("parameters", "presets"):
+        if not isinstance(content, dict):
             continue
         entries = [(k, v) for k, v in content.items() if isinstance(v, dict)] or [(None, content)]
+        if table in ("parameters", "presets"):  # the engine checks these; one entry each suffices
+            entries = entries[:1]
         for key, spec in entries:
             for field in spec:
                 for junk in FIELD_JUNK:
