@@ -8,6 +8,8 @@ Layout of a model file::
     reference = "..."            # optional
     period = "2*pi/Omega"        # optional forcing period
     initial_mode = "stick"       # optional
+    format = "modes"             # optional: another format is built by the entry point of
+                                 # that name in group `hybrid.model_formats` (e.g. "network")
     quadratures = ["W", "D"]     # optional
     outputs = ["H"]              # optional, names of definitions
 
@@ -55,11 +57,24 @@ from __future__ import annotations
 import stat
 import tomllib
 from collections.abc import Mapping
+from importlib.metadata import entry_points
 from pathlib import Path
 
 from ._system import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
 
-__all__ = ["load_system", "system_from_dict", "MAX_FILE_BYTES"]
+__all__ = [
+    "load_system",
+    "system_from_dict",
+    "read_model_file",
+    "describe_model_file",
+    "draw_model_file",
+    "MAX_FILE_BYTES",
+]
+
+#: Entry-point group of the model-file formats other than "modes": each entry loads an object
+#: (e.g. a module) with ``build(data) -> mapping``, turning the parsed file into the content of a
+#: mode-level file, and optionally ``describe(data) -> str`` and ``draw(data, png_path)``.
+FORMAT_GROUP = "hybrid.model_formats"
 
 #: Largest model file read [bytes] (checked before it is read; the shipped models are about 5 KB).
 MAX_FILE_BYTES = 1 << 20
@@ -77,7 +92,7 @@ _TOP = {
     "energy",
     "orbit",
 }
-_MODEL = {"name", "title", "reference", "period", "initial_mode", "quadratures", "outputs"}
+_MODEL = {"name", "title", "reference", "period", "initial_mode", "quadratures", "outputs", "format"}
 _VAR = {"unit", "description"}
 _PAR = {"unit", "description", "domain"}
 _MODE = {"derivatives", "algebraic", "definitions"}
@@ -90,7 +105,7 @@ def load_system(path: str | Path) -> HybridSystem:
     Parameters
     ----------
     path : str or Path
-        The file.
+        The file: a mode-level model, or another format named by ``[model] format``.
 
     Returns
     -------
@@ -101,6 +116,62 @@ def load_system(path: str | Path) -> HybridSystem:
     ModelError
         The file is not valid TOML or the model is inconsistent; the message
         names the file and the item.
+    """
+    path = Path(path)
+    data = read_model_file(path)
+    try:
+        return system_from_dict(data)
+    except ModelError as exc:
+        raise ModelError(f"{path.name}: {exc}") from None
+
+
+def describe_model_file(path: str | Path) -> str | None:
+    """The description its format gives of a model file (None for mode-level files).
+
+    Raises
+    ------
+    ModelError
+        As :func:`load_system`.
+    """
+    path = Path(path)
+    data = read_model_file(path)
+    try:
+        fmt = _format(data)
+        if fmt is None or not hasattr(fmt, "describe"):
+            return None
+        return str(fmt.describe(data))
+    except ModelError as exc:
+        raise ModelError(f"{path.name}: {exc}") from None
+
+
+def draw_model_file(path: str | Path, out: str | Path) -> bool:
+    """Write the figure its format draws of a model file to ``out``; False if the format draws none.
+
+    Raises
+    ------
+    ModelError
+        As :func:`load_system`.
+    """
+    path = Path(path)
+    data = read_model_file(path)
+    try:
+        fmt = _format(data)
+        if fmt is None or not hasattr(fmt, "draw"):
+            return False
+        fmt.draw(data, out)
+        return True
+    except ModelError as exc:
+        raise ModelError(f"{path.name}: {exc}") from None
+
+
+def read_model_file(path: str | Path) -> dict:
+    """The parsed content of a model file, read within the size limits.
+
+    Raises
+    ------
+    ModelError
+        Missing, unreadable, too large, not UTF-8 or not valid TOML; the
+        message names the file.
     """
     path = Path(path)
     name = str(path)
@@ -128,15 +199,24 @@ def load_system(path: str | Path) -> HybridSystem:
     except UnicodeDecodeError:
         raise ModelError(f"model file {name!r} is not UTF-8 text") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(f"model file {name!r} is not valid TOML: {exc}") from None
     except RecursionError:
         raise ModelError(f"model file {name!r}: tables or arrays nested too deeply") from None
-    try:
-        return system_from_dict(data)
-    except ModelError as exc:
-        raise ModelError(f"{path.name}: {exc}") from None
+
+
+def _format(data: Mapping) -> object | None:
+    """The format object named by ``[model] format`` (None for the mode-level format)."""
+    model = data.get("model") if isinstance(data, Mapping) else None
+    fmt = model.get("format", "modes") if isinstance(model, Mapping) else "modes"
+    if fmt == "modes":
+        return None
+    formats = {ep.name: ep for ep in entry_points(group=FORMAT_GROUP)}
+    if not isinstance(fmt, str) or fmt not in formats:
+        have = ", ".join(["modes", *sorted(formats)])
+        raise ModelError(f"[model] `format` = {_short(fmt)} is not a known model format; formats: {have}")
+    return formats[fmt].load()
 
 
 def _short(value: object, width: int = 60) -> str:
@@ -162,7 +242,17 @@ def _check_keys(table: Mapping, allowed: set[str], where: str) -> None:
 
 
 def system_from_dict(data: Mapping) -> HybridSystem:
-    """Build a :class:`HybridSystem` from the parsed content of a model file."""
+    """Build a :class:`HybridSystem` from the parsed content of a model file.
+
+    A file whose ``[model] format`` names another format is first turned into
+    mode-level content by that format's ``build`` (see :data:`FORMAT_GROUP`).
+    """
+    fmt = _format(data)
+    if fmt is not None:
+        built = fmt.build(data)
+        if _format(built) is not None:
+            raise ModelError("a model format must build mode-level content")
+        return system_from_dict(built)
     _check_keys(data, _TOP, "model file")
     for key in _TOP - {"transitions"}:
         if key in data and not isinstance(data[key], Mapping):

@@ -1,4 +1,4 @@
-"""Command line: ``hybrid simulate|orbit|frc MODEL ...`` and ``hybrid models``.
+"""Command line: ``hybrid simulate|orbit|frc|show MODEL ...`` and ``hybrid models``.
 
 Models are found by name among the installed ``hybrid.models`` entry points
 (the project's built-ins: absorber, isolator, coulomb) or given as the path of
@@ -31,7 +31,7 @@ from ._io import (
     write_rows_csv,
     write_trajectory_csv,
 )
-from ._loader import load_system
+from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
 from ._progress import ProgressBar
@@ -283,7 +283,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_budget(p)
 
     sub.add_parser("models", help="list the built-in models")
+    _add_show_parser(sub)
     return parser
+
+
+def _add_show_parser(sub) -> None:
+    p = sub.add_parser("show", help="print a model's modes, guards and transitions (and its network, if any)")
+    p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
+    p.add_argument(
+        "--out", default=None, metavar="PNG", help="also draw the network of a network file to PNG"
+    )
 
 
 def _info(msg: str) -> None:
@@ -757,7 +766,72 @@ def cmd_frc(args) -> int:
     return 0
 
 
-COMMANDS = {"models": cmd_models, "simulate": cmd_simulate, "orbit": cmd_orbit, "frc": cmd_frc}
+def _table(header: Sequence[str], rows: list[Sequence[str]]) -> list[str]:
+    """Rows as text columns, each as wide as its widest cell (the last one left ragged)."""
+    widths = [max(len(str(r[k])) for r in [header, *rows]) for k in range(len(header) - 1)]
+    lines = []
+    for r in [header, *rows]:
+        cells = [str(c).ljust(w) for c, w in zip(r[:-1], widths, strict=True)] + [str(r[-1])]
+        lines.append("  " + "  ".join(cells).rstrip())
+    return lines
+
+
+def show_text(system: HybridSystem, description: str | None = None) -> str:
+    """A model as text: its network (if given), then its modes and its transitions as tables."""
+    lines = [description, ""] if description else []
+    lines.append(f"model `{system.name}`" + (f": {system.title}" if system.title else ""))
+    lines.append(
+        f"  {len(system.variables)} variables, {len(system.modes)} modes, {len(system.transitions)} transitions, "
+        f"initial mode {system.initial_mode or system.mode_names[0]}"
+    )
+    lines.append("")
+    lines.append("modes:")
+    rows = []
+    for m in system.modes:
+        differential = [v for v in system.variable_names if v not in m.algebraic]
+        rows.append((m.name, ", ".join(differential), ", ".join(m.algebraic) or "-"))
+    lines += _table(("mode", "differential", "slave (algebraic)"), rows)
+    lines.append("")
+    lines.append("transitions:")
+    arrow = {1: "rising", -1: "falling", 0: "either"}
+    rows = [
+        (
+            t.name,
+            t.source,
+            t.target,
+            arrow[t.direction],
+            t.guard,
+            ", ".join(f"{k} = {v}" for k, v in t.reset.items()) or "-",
+        )
+        for t in system.transitions
+    ]
+    lines += _table(("name", "from", "to", "crossing", "guard", "reset"), rows)
+    return "\n".join(lines)
+
+
+def cmd_show(args) -> int:
+    system = resolve_model(args.model)
+    is_file = args.model.endswith(".toml") or "/" in args.model or Path(args.model).exists()
+    description = describe_model_file(Path(args.model)) if is_file else None
+    if args.out is not None:
+        out = Path(args.out)
+        if not args.out.strip() or out.is_dir() or not out.parent.is_dir():
+            raise UsageError(f"`--out {args.out}` must name a PNG file in an existing folder")
+        if description is None or not draw_model_file(Path(args.model), out):
+            raise UsageError(f"model `{system.name}` is not a network file: there is no network to draw")
+    print(show_text(system, description))
+    if args.out is not None:
+        _info(f"wrote {args.out}")
+    return 0
+
+
+COMMANDS = {
+    "models": cmd_models,
+    "simulate": cmd_simulate,
+    "orbit": cmd_orbit,
+    "frc": cmd_frc,
+    "show": cmd_show,
+}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
