@@ -1019,7 +1019,6 @@ def network_model(net: Network) -> dict:
         # neutral family of periodic orbits (as the hand-written files' gauges do)
         a_pos, b_pos = (p if p != GROUND else "0" for p in (e.a, e.b))
         orbit = {"gauge": b_pos if a_pos == "0" else (f"-{a_pos}" if b_pos == "0" else f"{b_pos} - {a_pos}")}
-        orbit["stick_modes"] = [all_stick]
     if net.orbit is not None:
         orbit = dict(net.orbit)
     freqs = {f.frequency for f in net.forces if f.frequency is not None} | (
