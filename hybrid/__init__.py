@@ -23,10 +23,10 @@ from ._options import ContinuationOptions as ContinuationOptions
 from ._options import SolverOptions as SolverOptions
 from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
 from ._orbit import PeriodicOrbit as PeriodicOrbit
-from ._orbit import periodic_orbit as periodic_orbit
 from ._record import Envelope as Envelope
 from ._record import Sink as Sink
 from ._record import Tee as Tee
+from ._shooting import periodic_orbit as periodic_orbit
 from ._simulate import SimulationError as SimulationError
 from ._simulate import initial_state as initial_state
 from ._simulate import simulate as simulate

@@ -30,18 +30,8 @@ import numpy as np
 from ._budget import BudgetExceeded
 from ._expr import free_symbols
 from ._options import ContinuationOptions, SolverOptions
-from ._orbit import (
-    ORBIT_OPTIONS,
-    PeriodicOrbit,
-    Shooter,
-    _choose_section_period,
-    _finish,
-    _Newton,
-    _scale,
-    check_samples,
-    is_family,
-    solve_orbit,
-)
+from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _finish, check_samples, is_family
+from ._shooting import Shooter, _choose_section_period, _Newton, _scale, solve_orbit
 from ._simulate import check_time_range, initial_state
 from ._special import SpecialPoint, detect, locate
 from ._system import HybridSystem

@@ -186,3 +186,33 @@ class Trajectory:
             f"t=[{self.t_start:g}, {self.t_final:g}], samples={self.n_samples}, transitions={self.n_transitions}, "
             f"mode_final={self.mode_final!r}, nfev={self.nfev}, njev={self.njev})"
         )
+
+
+class _Deferred:
+    """An unsampled one-period run standing for the sampled one: its start, end, events, status
+    and counts are the run's own; the samples (``t``, ``y``, ``mode``, ``outputs``, ``tr[name]``)
+    come from the sampled run, made on first use (:meth:`materialize`)."""
+
+    _SAMPLED = frozenset({"t", "y", "mode", "outputs", "n_samples"})
+
+    def __init__(self, base: Trajectory, make):
+        self.base = base
+        self._make = make
+        self._full: Trajectory | None = None
+
+    def materialize(self) -> Trajectory:
+        if self._full is None:
+            self._full = self._make()
+        return self._full
+
+    def __getattr__(self, name: str):
+        if name in _Deferred._SAMPLED:
+            return getattr(self.materialize(), name)
+        return getattr(self.base, name)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.materialize()[name]
+
+
+def _sampled(tr):
+    return tr.materialize() if isinstance(tr, _Deferred) else tr

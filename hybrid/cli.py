@@ -33,9 +33,10 @@ from ._io import (
 )
 from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
-from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
+from ._orbit import ORBIT_OPTIONS, PeriodicOrbit
 from ._progress import ProgressBar
 from ._record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
+from ._shooting import periodic_orbit
 from ._simulate import SimulationError, initial_state, simulate
 from ._system import HybridSystem, ModelError
 

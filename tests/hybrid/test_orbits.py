@@ -14,8 +14,9 @@ import orbit_problems as op
 import pytest
 
 import hybrid
-import hybrid._orbit as orbit_module
+import hybrid._shooting as shooting_module
 from hybrid import SolverOptions, continuation, periodic_orbit, simulate
+from hybrid._variational import Sensitivity
 
 #: Tolerances of the finite-difference period maps (tighter than the orbit's own runs).
 FD_OPTIONS = SolverOptions(rtol=1e-12, atol=1e-14)
@@ -337,8 +338,8 @@ def no_integration(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("an integration started before the input was checked")
 
-    monkeypatch.setattr(orbit_module, "run_compiled", forbidden)
-    monkeypatch.setattr(orbit_module.Sensitivity, "fundamental", forbidden)
+    monkeypatch.setattr(shooting_module, "run_compiled", forbidden)
+    monkeypatch.setattr(Sensitivity, "fundamental", forbidden)
 
 
 def test_periodic_orbit_needs_a_period(no_integration):

@@ -1,0 +1,690 @@
+"""Shooting for periodic orbits of periodically forced hybrid systems, with an exact monodromy.
+
+The stroboscopic map ``P: y(t0) -> y(t0 + T)`` over one forcing period is
+evaluated by an event-driven run (:func:`hybrid.simulate`); its Jacobian, the
+monodromy matrix, by the variational equations of each mode and the
+saltation matrix of each switch (:mod:`hybrid._variational`). Newton's method
+solves ``P(y) = y`` on the differential variables of the section's mode (its
+slave variables are solved from their algebraic equations at the section).
+
+Choices that make this work for stick-slip systems:
+
+* the section phase is put in the middle of the longest mode interval of the
+  guess, so that the map is smooth near the orbit and the mode at ``t0 + T``
+  equals the mode at ``t0`` (a converged orbit is checked for it);
+* Newton steps are least-squares steps: ``I - M`` is singular on a family of
+  orbits (a neutral multiplier 1, e.g. the free offset of a stuck friction
+  element) and nearly singular for weakly damped orbits (multipliers 0.99 and
+  above). On a family the model's ``orbit.gauge`` expression (= 0 at the
+  section) picks the member; without one the member nearest the guess is kept;
+* the accuracy is reported: the Newton residual and the condition number of
+  ``I - M``, whose product with the integration tolerance bounds the error
+  of the orbit's state.
+
+The result and what is read off it (amplitudes, multipliers, verdict) are in :mod:`hybrid._orbit`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from ._budget import BudgetExceeded
+from ._compiled import CompiledSystem
+from ._expr import compile_scalar, diff
+from ._options import SolverOptions
+from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _failed, _finish, check_samples, is_family
+from ._simulate import check_initial_state, check_time_range, initial_state, run_compiled
+from ._system import HybridSystem
+from ._trajectory import Status, Trajectory, _Deferred, _sampled
+from ._variational import Sensitivity
+
+__all__ = ["Shooter", "periodic_orbit", "solve_orbit", "compiled"]
+
+
+# ----------------------------------------------------------------------
+#: Compiled systems kept per model (the most recent parameter sets).
+COMPILED_CACHE = 4
+
+
+def compiled(
+    system: HybridSystem,
+    params: Mapping[str, float],
+    runtime: tuple[str, ...] = (),
+    *,
+    reuse_runtime: bool = True,
+) -> CompiledSystem:
+    """A compiled system for ``params``, reused from the model's recent ones where possible.
+
+    With ``runtime`` parameters the result is private (its run-time values change). Otherwise:
+    the same parameter set as a recent one reuses it; a set that differs from a recent one in a
+    single parameter gets a system compiled with that parameter read at run time (a sweep or a
+    continuation neighbour compiles once), set to the requested value at every reuse (so a
+    system returned here is only valid until the next call; ``reuse_runtime=False``, e.g. for the
+    exact integrator, which needs every parameter folded, never returns such a one).
+    """
+    if runtime:
+        return CompiledSystem(system, params, runtime=runtime)
+    params = system.parameter_values(params)
+    cache: list = system._cache.setdefault("compiled", [])
+    # Parameters in a reset stay folded (the saltation code compiles reset derivatives on its own).
+    resets = set().union(*(e.free for td in system._cache["transitions"] for e in td["reset"].values()))
+    best = None
+    for k, cs in enumerate(cache):
+        differ = [p for p, v in params.items() if v != cs.params[p]]
+        if (not differ and (reuse_runtime or not cs.runtime)) or (
+            reuse_runtime and cs.runtime and set(differ) <= set(cs.runtime)
+        ):
+            best = k
+            break
+        if reuse_runtime and not cs.runtime and len(differ) == 1 and best is None and differ[0] not in resets:
+            best = (differ[0],)
+    if isinstance(best, int):
+        cs = cache.pop(best)
+        if cs.runtime:
+            cs.set_runtime(params)
+    elif best is not None:
+        cs = CompiledSystem(system, params, runtime=best)
+    else:
+        cs = CompiledSystem(system, params)
+    while len(cache) >= COMPILED_CACHE:
+        cache.pop(0)
+    cache.append(cs)  # most recent last
+    return cs
+
+
+class ParameterOutOfDomain(ValueError, RuntimeError):
+    """An iteration (e.g. a continuation's corrector) reached a parameter value outside its domain:
+    a failed iteration (a RuntimeError to the caller's recovery), not bad input."""
+
+
+class Shooter:
+    """The stroboscopic map of one system and its derivatives (state and, optionally, one parameter).
+
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping
+        Parameter values (checked).
+    options : SolverOptions
+    free : str, optional
+        A parameter to differentiate the map by (for continuation).
+    """
+
+    def __init__(
+        self,
+        system: HybridSystem,
+        params: Mapping[str, float],
+        options: SolverOptions,
+        free: str | None = None,
+    ):
+        self.system = system
+        self.options = options
+        self.free = free
+        self.names = system.variable_names
+        self.set_params(params)
+        if options.integrator == "exact":
+            self.cs.affine()  # refused before any run if not affine (NotAffineError)
+        # Without a free parameter the variational runs use the same compiled system.
+        self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
+        T = self.period
+        self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
+        nb = len(self.names)
+        self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
+        gauge = system._cache.get("gauge")
+        if gauge is not None:
+            slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(self.names)}}
+            pconst = dict(self.params)
+            self._gauge = compile_scalar(gauge, slots, pconst)
+            self._gauge_grad = [compile_scalar(diff(gauge, nm), slots, pconst) for nm in self.names]
+        else:
+            self._gauge = None
+        pe = system._cache["period"]
+        self._dT = diff(pe, free) if free else None
+        self.nfev = 0
+
+    def set_params(self, params: Mapping[str, float]) -> None:
+        cs = getattr(self, "cs", None)
+        try:
+            self.params = self.system.parameter_values(params)
+        except ValueError as exc:
+            if cs is None:
+                raise  # the caller's input
+            raise ParameterOutOfDomain(str(exc)) from None
+        if (
+            cs is not None
+            and cs.runtime
+            and all(v == cs.params[k] for k, v in self.params.items() if k not in cs.runtime)
+        ):
+            cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
+        elif self.options.integrator == "exact":
+            # every parameter read at call time: the exact flows come from the affine analysis
+            self.cs = CompiledSystem.borrow(self.system, self.params, self)
+        else:
+            # The free parameter is read at run time (set_runtime).
+            runtime = (self.free,) if self.free is not None else ()
+            self.cs = compiled(self.system, self.params, runtime)
+        self.period = self.cs.period
+        if self.period is None:
+            raise ValueError(
+                f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
+            )
+        if self.free is not None:
+            self.ext_values = np.array([self.params[self.free]])
+        else:
+            self.ext_values = np.zeros(0)
+
+    def dT(self) -> float:
+        """d(period)/d(free parameter)."""
+        return float(compile_scalar(self._dT, {}, self.params)(())) if self._dT is not None else 0.0
+
+    # ------------------------------------------------------------------
+    def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
+        """One period from ``(t0, y0, mode0)`` (quadratures reset to 0).
+
+        With ``samples`` the run is made without them and returned as a :class:`_Deferred`: the
+        sampled run (about twice as costly) is made only if its samples are used, e.g. for an
+        accepted orbit, not at every iteration of a corrector.
+
+        A run that exhausts its budget raises :class:`hybrid._budget.BudgetExceeded`.
+        """
+        tr = self._run(y0, mode0, t0, None)
+        if samples and tr.success:
+            return _Deferred(tr, lambda: self._run(y0, mode0, t0, samples))
+        return tr
+
+    def _run(self, y0: np.ndarray, mode0: str, t0: float, samples: int | None) -> Trajectory:
+        y = np.array(y0, dtype=float)
+        for q in self.system.quadratures:
+            y[self.names.index(q)] = 0.0
+        T = self.period
+        grid = np.linspace(t0, t0 + T, samples + 1) if samples else np.array([t0, t0 + T])
+        tr = run_compiled(self.cs, self.options, t0, t0 + T, y, self.cs.mode_id(mode0), grid, bool(samples))
+        self.nfev += tr.nfev
+        if tr.status in (Status.STEP_LIMIT, Status.TIME_LIMIT):
+            raise BudgetExceeded("steps" if tr.status == Status.STEP_LIMIT else "time", tr.message)
+        return tr
+
+    def monodromy(self, tr: Trajectory) -> np.ndarray:
+        """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
+        base = tr.base if isinstance(tr, _Deferred) else tr
+        return self.sens.fundamental(
+            base.t_start, base.y[0], base.mode_start, base.t_final, base.events, self.ext_values
+        )
+
+    def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
+        if self._gauge is None:
+            return None
+        v = [0.0, *y.tolist()]
+        return float(self._gauge(v)), np.array([g(v) for g in self._gauge_grad])
+
+
+# ----------------------------------------------------------------------
+def _choose_section(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
+    """Section time/state/mode in the middle of the longest mode interval of the run's last period.
+
+    The interval across the period boundary counts as one (its first and last pieces joined).
+    """
+    t_end = tr.t_final
+    t_start = t_end - T
+    ivs = [(max(a, t_start), b, m) for a, b, m in tr.mode_intervals() if b > t_start]
+    if len(ivs) <= 1:
+        return t_end, tr.y_final, tr.mode_final
+    first, last = ivs[0], ivs[-1]
+    cands = list(ivs[1:-1])
+    if first[2] == last[2]:
+        cands.append((last[0], first[1] + T, last[2]))  # wrapped interval
+    else:
+        cands += [first, last]
+    a, b, m = max(cands, key=lambda iv: iv[1] - iv[0])
+    tm = 0.5 * (a + b)
+    if tm > t_end:
+        tm -= T
+    k = int(np.argmin(np.abs(tr.t - tm)))
+    return float(tr.t[k]), tr.y[k].copy(), str(tr.mode[k])
+
+
+#: What to try when Newton's method fails where an orbit may exist.
+HINT = (
+    "an orbit may still exist: try a longer transient (transient_periods; CLI --transient, e.g. 1000), "
+    "another guess (x0; --x0) or a continuation from a nearby parameter value (hybrid frc)"
+)
+
+
+def _check_inputs(system: HybridSystem, options, tol: float, max_iter: int, transient_periods: int) -> None:
+    if not isinstance(system, HybridSystem):
+        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+    if system.period is None:
+        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+    if not isinstance(options, SolverOptions):
+        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
+    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
+        raise ValueError(f"`tol` must be a number > 0, got {tol!r}")
+    for name, v, lo in (("max_iter", max_iter, 1), ("transient_periods", transient_periods, 0)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
+
+
+def periodic_orbit(
+    system: HybridSystem,
+    params: Mapping[str, float],
+    x0=None,
+    mode0: str | None = None,
+    *,
+    t0: float | None = None,
+    transient_periods: int = 10,
+    options: SolverOptions | None = None,
+    tol: float = 1e-9,
+    max_iter: int = 30,
+    samples_per_period: int = 512,
+) -> PeriodicOrbit:
+    """Periodic orbit by Newton shooting, with its monodromy matrix and Floquet multipliers.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        A periodically forced model (it declares a ``period``).
+    params : mapping of str to float
+        All parameter values.
+    x0 : mapping or array_like, optional
+        Guess of the state (default: all 0 in the initial mode).
+    mode0 : str, optional
+        Mode of the guess (default: the model's initial mode).
+    t0 : float, optional
+        Time of the guess [s]. If given with ``transient_periods=0``, the
+        section is ``(t0, x0, mode0)`` as given (e.g. the previous point of a
+        continuation); otherwise a transient of ``transient_periods`` forcing
+        periods is run from the guess and the section is put in the middle of
+        the longest mode interval of its last period.
+    transient_periods : int
+        Forcing periods simulated from the guess before Newton's method.
+    options : SolverOptions, optional
+        Tolerances (default :data:`ORBIT_OPTIONS`, rtol 1e-10).
+    tol : float
+        Newton tolerance on ``max |P(x) - x| / max |x|``.
+    max_iter : int
+        Newton iterations allowed.
+    samples_per_period : int
+        Samples of the returned one-period trajectory.
+
+    Returns
+    -------
+    PeriodicOrbit
+        ``converged`` is False (with the reason in ``message``) if Newton's
+        method failed, e.g. when the response grows without bound (no bounded
+        periodic orbit) or a run failed.
+
+    Raises
+    ------
+    ValueError
+        Bad input (before any integration).
+    """
+    options = ORBIT_OPTIONS if options is None else options
+    _check_inputs(system, options, tol, max_iter, transient_periods)
+    check_samples(samples_per_period)
+    mode0 = mode0 if mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
+    system.mode(mode0)
+    shooter = Shooter(system, params, options)
+    if x0 is None:
+        x0 = np.zeros(len(system.variable_names))
+    y = initial_state(system, x0, mode0)
+    start = 0.0 if t0 is None else float(t0)
+    if not math.isfinite(start):
+        raise ValueError(f"`t0` must be finite, got {t0!r}")
+    check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
+    check_initial_state(shooter.cs, mode0, start, y)
+    return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+
+
+def solve_orbit(
+    shooter: Shooter,
+    y: np.ndarray,
+    mode0: str,
+    t_start: float,
+    transient_periods: int,
+    tol: float,
+    max_iter: int,
+    samples: int,
+) -> PeriodicOrbit:
+    """Newton shooting from a guess (see :func:`periodic_orbit`).
+
+    A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`)
+    or a grazing switch comes back as ``converged=False`` with the reason.
+    """
+    at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
+    try:
+        return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
+    except BudgetExceeded as exc:
+        return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc))
+    except ZeroDivisionError as exc:  # a grazing switch: no saltation matrix, no monodromy
+        return _failed(
+            shooter,
+            at[0],
+            at[1],
+            at[2],
+            at[3],
+            math.inf,
+            f"{exc}; write the guard to cross zero at a nonzero rate "
+            "(e.g. `v` rather than `sign(v)`), or, at a true grazing, try a nearby parameter value",
+        )
+    except RuntimeError as exc:  # IDA failed in the variational equations
+        return _failed(shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}")
+
+
+def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
+    T = shooter.period
+    t_sec, mode = t_start, mode0
+    if transient_periods > 0:
+        tr = run_compiled(
+            shooter.cs,
+            shooter.options,
+            t_start,
+            t_start + transient_periods * T,
+            y,
+            shooter.cs.mode_id(mode0),
+            np.linspace(t_start + (transient_periods - 1) * T, t_start + transient_periods * T, 257),
+            True,
+        )
+        shooter.nfev += tr.nfev
+        if tr.status == Status.STEP_LIMIT and "at its rate" in tr.message:
+            return _failed(
+                shooter,
+                y,
+                mode0,
+                t_start,
+                0,
+                math.inf,
+                f"transient failed: {tr.message}; fewer transient periods (transient_periods; CLI --transient) "
+                "or a better guess (--x0) cost less",
+            )
+        if not tr.success:
+            return _failed(shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}")
+        t_sec, y, mode = _choose_section(tr, T)
+    t_sec = t_sec - math.floor(t_sec / T) * T
+    at[:] = [y, mode, t_sec, 0]
+    return newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
+
+
+def _scale(y: np.ndarray, d: np.ndarray) -> float:
+    return max(float(np.max(np.abs(y[d]))) if d.size else 0.0, 1e-300)
+
+
+class _Newton:
+    """One section mode's Newton system: unknowns are its differential (non-quadrature) variables."""
+
+    def __init__(self, shooter: Shooter, mode: str):
+        self.sh = shooter
+        cm = shooter.cs.modes[shooter.cs.mode_id(mode)]
+        s = shooter.s
+        self.d = np.array([i for i in s if cm.is_diff[i]], dtype=int)  # unknowns (state indices)
+        self.pos = np.array([int(np.flatnonzero(s == i)[0]) for i in self.d], dtype=int)  # in s
+        self.cm = cm
+
+    def residual(self, tr: Trajectory, y0: np.ndarray) -> np.ndarray:
+        return tr.y_final[self.d] - y0[self.d]
+
+    def project(self, t: float, y: np.ndarray) -> np.ndarray:
+        return self.cm.solve_algebraic(t, y)
+
+
+def newton(
+    shooter: Shooter,
+    y: np.ndarray,
+    mode0: str,
+    t0: float,
+    tol: float,
+    max_iter: int,
+    samples: int,
+    at: list | None = None,
+) -> PeriodicOrbit:
+    """Newton's method on ``P(y) = y`` from a section state (see :func:`periodic_orbit`).
+
+    ``at`` (a list) receives the current section state, mode, time and iteration.
+    """
+    at = [] if at is None else at
+    nw = _Newton(shooter, mode0)
+    d = nw.d
+    rcond = 1e-7
+    try:
+        y = nw.project(t0, np.array(y, dtype=float))
+    except Exception as exc:  # AlgebraicSolveError
+        return _failed(shooter, y, mode0, t0, 0, math.inf, f"guess is not consistent: {exc}")
+    scale0 = _scale(y, d)
+    res_norm = math.inf
+    note = ""
+    family = False
+    it = 0
+    rephased = 0
+    resonant = False  # I - M singular with the mismatch outside its range, at the last iteration
+    tr = None  # the run from y, when the line search already has it
+    J = None  # M_dd - I: exact after a monodromy, then Broyden-updated (None: recompute)
+    uphill = 0  # steps far from the orbit accepted without a decrease (reported)
+    stalled = False  # the exact Newton step vanishes while the residual does not
+    J_here = False  # J is the exact one at the current iterate
+    # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
+    # and its exact Newton steps reach rounding.
+    broyden = BROYDEN and shooter.options.integrator != "exact"
+    # Relative accuracy of one run of the map (the exact integrator's is rounding).
+    noise_rtol = shooter.options.rtol if shooter.options.integrator != "exact" else 1e-15
+    settle = False  # the residual met the tolerance and a further correction found no decrease
+    while True:
+        at[:] = [y, mode0, t0, it]
+        if tr is None:
+            tr = shooter.run(y, mode0, t0)
+        if not tr.success:
+            return _failed(shooter, y, mode0, t0, it, res_norm, f"run failed at iteration {it}: {tr.message}")
+        r = nw.residual(tr, y)
+        scale = _scale(y, d)
+        res_norm = float(np.max(np.abs(r))) / scale
+        g = shooter.gauge(y)
+        gauge_bad = family and g is not None and abs(g[0]) > tol * scale
+        if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
+            # the exact integrator: judge the correction with the exact Jacobian here (cheap)
+            M = shooter.monodromy(tr)
+            J, J_here = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
+        if (
+            res_norm <= tol
+            and not gauge_bad
+            and (settle or _settled(J, r, tol, scale, rcond, noise_rtol, it, max_iter))
+        ):
+            if tr.mode_final == mode0:
+                break
+            if rephased < 3:  # converged onto a section at a switch: move the section
+                rephased += 1
+                trx = shooter.run(y, mode0, t0, samples=256)
+                t1, y1, m1 = _choose_section_period(trx, shooter.period)
+                t0, y, mode0 = t1, y1, m1
+                nw = _Newton(shooter, mode0)
+                d = nw.d
+                tr, J = None, None
+                continue
+            note = "the mode at t0 + T differs from the section's mode; "
+            break
+        if it >= max_iter or stalled:
+            grows = scale > 1e3 * max(scale0, 1e-300)
+            if grows:
+                why = "the response grows without bound: no bounded periodic orbit"
+            elif resonant and res_norm > 1e-4:
+                why = (
+                    "no bounded periodic orbit near the guess: a Floquet multiplier is 1 and the mismatch "
+                    "P(x) - x lies outside the range of I - M (a resonance: the response grows by the same "
+                    "amount every period); if something limits that growth at larger amplitude, " + HINT
+                )
+            else:
+                why = "Newton's method did not converge; " + HINT
+            return _failed(
+                shooter, y, mode0, t0, it, res_norm, f"{why} ({it} iterations, residual {res_norm:.3g})"
+            )
+        if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(scale0, 1.0):
+            return _failed(
+                shooter,
+                y,
+                mode0,
+                t0,
+                it,
+                res_norm,
+                "the response grows without bound: no bounded periodic orbit "
+                f"(max |x| = {scale:.3g} after {it} Newton iterations)",
+            )
+        it += 1
+        while True:  # a Newton direction, then an Armijo line search along it
+            exact = J is None or J_here
+            if J is None:
+                M = shooter.monodromy(tr)
+                J = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
+            J_here = False
+            sv = np.linalg.svd(J, compute_uv=False)
+            family = is_family(sv)
+            A = np.vstack([J, g[1][d]]) if (family and g is not None) else J
+            rhs = _rhs(r, g, family)
+            pinv = np.linalg.pinv(A, rcond=rcond)
+            step = pinv @ rhs
+            if exact:  # judged on the exact I - M only; once seen, kept for the diagnosis
+                rn = float(np.linalg.norm(rhs))
+                resonant = resonant or bool(
+                    (
+                        sv[-1] <= 1e-6 * max(sv[0], 1e-300)
+                        and rn > 0
+                        and np.linalg.norm(A @ step - rhs) > 0.5 * rn
+                    )
+                    # a Newton step thousands of times the state: I - M nearly singular, mismatch outside
+                    # its range (the line search then keeps the iterates from growing)
+                    or float(np.max(np.abs(step))) > 1e3 * max(scale, scale0)
+                )
+            # The linear model corrects almost none of the mismatch (it lies outside the range of
+            # the matrix): no progress is possible along Newton's step.
+            if float(np.linalg.norm(A @ step)) <= 1e-3 * float(np.linalg.norm(rhs)):
+                if exact:
+                    stalled = True  # the mismatch lies outside the range of I - M
+                    break
+                J = None
+                continue
+            found, best = _line_search(
+                shooter, nw, y, mode0, t0, step, pinv, family, float(np.linalg.norm(rhs))
+            )
+            if found is not None or exact:
+                break
+            J = None  # the updated Jacobian gave no descent: recompute it exactly at y
+        if stalled:
+            continue
+        if found is None and res_norm <= tol:
+            settle = True  # the correction asked for by _settled is below what the runs resolve
+            continue
+        if found is None:
+            if res_norm <= 0.1:
+                return _failed(
+                    shooter,
+                    y,
+                    mode0,
+                    t0,
+                    it,
+                    res_norm,
+                    "Newton's method found no decrease of the residual along its direction (the map is "
+                    f"not smooth here, or not accurate enough for the tolerance); {HINT} "
+                    f"({it} iterations, residual {res_norm:.3g})",
+                )
+            # Far from the orbit (a transient's guess): take the best point tried, uphill, and say so.
+            found = best
+            if found is None:
+                return _failed(
+                    shooter, y, mode0, t0, it, res_norm, f"every run along the Newton step failed ({HINT})"
+                )
+            uphill += 1
+        y_new, tr, lam = found
+        # Broyden's update of J from the step taken (exact again whenever the line search cut it).
+        r_new = nw.residual(tr, y_new)
+        s_d = y_new[d] - y[d]
+        ss = float(s_d @ s_d)
+        if lam == 1.0 and ss > 0 and not family and broyden:
+            J = J + np.outer((r_new - r) - J @ s_d, s_d) / ss
+        else:
+            J = None
+        y = y_new
+    if uphill:
+        note += f"{uphill} Newton step(s) far from the orbit accepted without a decrease of the residual; "
+    at[:] = [y, mode0, t0, it]
+    return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note)
+
+
+def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int, max_iter: int) -> bool:
+    """A residual below the tolerance is not yet an accurate state when ``I - M`` is ill-conditioned:
+    with a Jacobian at hand, the Newton correction it gives must be below the tolerance too (or at
+    the noise level of the map, ``10 cond x rtol``, relative to ``scale``), else one more step is
+    taken (Broyden's iterates stop earlier than quadratic ones would)."""
+    if J is None or it >= max_iter:
+        return True
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not sv.size or sv[0] == 0.0:
+        return True
+    corr = np.linalg.lstsq(J, -r, rcond=rcond)[0]
+    noise = 10.0 * sv[0] / max(sv[-1], rcond * sv[0]) * rtol
+    return float(np.max(np.abs(corr))) <= max(tol, noise) * scale
+
+
+#: Broyden's updates of I - M between exact monodromies on the IDA path (False: exact Newton).
+BROYDEN = True
+
+
+#: Armijo's sufficient-decrease constant.
+ARMIJO = 1e-4
+
+
+#: Step halvings of the line search.
+MAX_BACKTRACKS = 8
+
+
+def _rhs(r: np.ndarray, g, family: bool) -> np.ndarray:
+    """Right-hand side of the Newton system: ``-r``, and ``-gauge`` on a family with a gauge."""
+    return np.concatenate([-r, [-g[0]]]) if (family and g is not None) else -r
+
+
+def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0):
+    """Armijo backtracking along the Newton step ``step = pinv @ rhs(y)``.
+
+    The first ``lam = 1, 1/2, ...`` is taken where the residual norm ``|rhs|`` decreases
+    sufficiently, ``|rhs(y + lam step)| <= (1 - c lam) res0`` (``res0 = |rhs(y)|``), or the
+    residual in Newton's natural norm does, ``|pinv @ rhs(y + lam step)| <= (1 - c lam) |step|``
+    (``pinv``: the pseudo-inverse of the iteration's own matrix). The natural norm is invariant
+    under a rescaling of the equations: far from a weakly damped orbit the plain residual of a
+    nearly singular ``I - M`` decreases only along steps thousands of times shorter than
+    Newton's; near the orbit it is the plain residual that is reliable (the natural norm
+    amplifies the integration noise by ``cond(I - M)``).
+
+    Returns ``(found, best)``: ``found = (y_new, run, lam)`` or None (the run is kept for the
+    next iteration: nothing is integrated twice); without one, ``best`` is the tried point of
+    least merit in the same form (for a step far from the orbit, reported by the caller), or None.
+    """
+    d = nw.d
+    phi0 = float(np.linalg.norm(step))
+    lam = 1.0
+    best = None
+    for _ in range(MAX_BACKTRACKS):
+        y_new = y.copy()
+        y_new[d] += lam * step
+        try:
+            y_new = nw.project(t0, y_new)
+        except Exception:  # AlgebraicSolveError: no consistent point there
+            lam *= 0.5
+            continue
+        tr = shooter.run(y_new, mode0, t0)
+        if tr.success and np.all(np.isfinite(tr.y_final)):
+            rhs = _rhs(nw.residual(tr, y_new), shooter.gauge(y_new), family)
+            phi = float(np.linalg.norm(pinv @ rhs))
+            if (
+                phi <= (1.0 - ARMIJO * lam) * phi0
+                or float(np.linalg.norm(rhs)) <= (1.0 - ARMIJO * lam) * res0
+            ):
+                return (y_new, tr, lam), None
+            if best is None or phi < best[0]:
+                best = (phi, y_new, tr, lam)
+        lam *= 0.5
+    return None, (best[1:] if best is not None else None)
+
+
+def _choose_section_period(tr: Trajectory, T: float) -> tuple[float, np.ndarray, str]:
+    t, y, m = _choose_section(_sampled(tr), T)
+    return t - math.floor(t / T) * T, y, m
