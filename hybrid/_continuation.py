@@ -199,6 +199,8 @@ class _Continuer:
         self.settings = settings
         self.tol = settings.tol
         self.sh = Shooter(system, params, options, free=parameter)
+        # Relative accuracy of one run of the map (the exact integrator's is rounding).
+        self.noise_rtol = options.rtol if options.integrator != "exact" else 1e-15
 
     def at(self, p: float) -> None:
         self.sh.set_params({**self.base, self.parameter: p})
@@ -281,7 +283,7 @@ class _Continuer:
             # (integration error amplified by the conditioning of the bordered system).
             sv = np.linalg.svd(Ab * D[None, :], compute_uv=False)
             kappa = sv[0] / max(sv[-1], 1e-300)
-            step_tol = max(self.settings.step_tol, 10.0 * kappa * self.sh.options.rtol)
+            step_tol = max(self.settings.step_tol, 10.0 * kappa * self.noise_rtol)
             if res <= self.tol and gauge_ok and float(np.max(np.abs(delta / D))) <= step_tol:
                 if tr.mode_final != pt.mode:
                     raise _Fail("section reached a switch")

@@ -182,7 +182,7 @@ class ContinuationOptions:
     ds_max: float = 0.5
     max_points: int = 2000
     tol: float = 1e-9
-    step_tol: float = 1e-7
+    step_tol: float = 1e-9
     max_iter: int = 8
     max_angle: float = 0.1
     locate: bool = True
