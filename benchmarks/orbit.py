@@ -170,8 +170,8 @@ def branch() -> None:
     base = absorber.preset("standard")
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
     methods = {
-        "engine, IDA rtol 1e-10": (SolverOptions(), 512),
-        "engine, IDA rtol 1e-10, 16 samples": (SolverOptions(), 16),
+        "engine, IDA rtol 1e-10": (SolverOptions(rtol=1e-10, atol=1e-12), 512),
+        "engine, IDA rtol 1e-10, 16 samples": (SolverOptions(rtol=1e-10, atol=1e-12), 16),
         "engine, exact": (SolverOptions(integrator="exact"), 512),
         "engine, exact, 16 samples": (SolverOptions(integrator="exact"), 16),
     }
