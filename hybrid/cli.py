@@ -44,6 +44,8 @@ __all__ = ["main", "resolve_model"]
 ENTRY_POINT_GROUP = "hybrid.models"
 #: Largest `--samples-per-period` (a period of `orbit` is held in memory; `simulate` keeps 4 of them).
 MAX_SAMPLES_PER_PERIOD = 100_000
+#: Help of `--out` (see `default_output_dir`).
+OUT_HELP = "output folder (default out/NAME: the built-in model's name, or the stem of the model file)"
 #: Forcing periods at the end of a `simulate` run kept in memory for its figure.
 PLOT_PERIODS = 4.0
 #: Time buckets of the whole-run panel of the `simulate` figure.
@@ -59,10 +61,16 @@ def builtin_models() -> dict[str, object]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
+def _is_model_file(name: str, builtin: dict | None = None) -> bool:
+    """Whether MODEL names a model file (a path) rather than a built-in model."""
+    eps = builtin_models() if builtin is None else builtin
+    return name.endswith(".toml") or "/" in name or (name not in eps and Path(name).exists())
+
+
 def resolve_model(name: str) -> HybridSystem:
     """A built-in model by name, or a model file by path."""
     eps = builtin_models()
-    if name.endswith(".toml") or "/" in name or (name not in eps and Path(name).exists()):
+    if _is_model_file(name, eps):
         return load_system(Path(name))
     if name not in eps:
         have = ", ".join(sorted(eps)) or "none installed"
@@ -222,7 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=100,
         help="output samples per period (default 100, at most 100000)",
     )
-    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     p.add_argument(
@@ -250,7 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=512,
         help="samples of the period (default 512, at most 100000)",
     )
-    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print the orbit as JSON on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     _add_budget(p)
@@ -274,7 +282,7 @@ def build_parser() -> argparse.ArgumentParser:
         "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     _add_tolerances(p)
-    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     p.add_argument(
@@ -432,19 +440,48 @@ def _announce(system: HybridSystem, preset: str | None, params: dict[str, float]
         )
 
 
+def default_output_dir(system: HybridSystem, model: str) -> Path:
+    """The default output folder of MODEL: ``out/<file stem>`` for a model file, else ``out/<name>``.
+
+    A model given as a file is named after the file, not after its ``[model] name``: two files
+    declaring the same name keep their results apart. The folder must lie directly inside ``out/``,
+    so that neither a file name nor a model name can direct output elsewhere.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        The resolved model.
+    model : str
+        MODEL as given on the command line (a built-in name or a path).
+
+    Returns
+    -------
+    Path
+        ``out/<folder>``, relative to the working directory.
+
+    Raises
+    ------
+    UsageError
+        The folder would not lie directly inside ``out/``.
+    """
+    folder = Path(model).stem if _is_model_file(model) else system.name
+    out = Path("out") / folder
+    if not folder.isprintable() or folder in ("", ".", "..") or out.resolve().parent != Path("out").resolve():
+        raise UsageError(
+            f"{folder!r} does not name a folder inside out/: rename the model file or give --out"
+        )
+    return out
+
+
 def _output_dir(system: HybridSystem, args) -> Path:
     """The output folder, created and checked writable before any computation.
 
-    ``--out`` if given, else ``out/<model name>``; the model name is checked
-    at load time (letters, digits, ``_`` and ``-`` only), and the folder must
-    still lie inside ``out/``, so a model file cannot direct output elsewhere.
+    ``--out`` if given, else :func:`default_output_dir` (``out/<file stem>`` for a model file,
+    ``out/<model name>`` for a built-in model), checked to lie inside ``out/``, so a model
+    file cannot direct output elsewhere.
     """
     if args.out is None:
-        out = Path("out") / system.name
-        if (
-            out.resolve().parent != Path("out").resolve()
-        ):  # pragma: no cover - model names are checked when the model is built
-            raise UsageError(f"model name {system.name!r} does not name a folder inside out/")
+        out = default_output_dir(system, args.model)
     else:
         if not args.out.strip():
             raise UsageError("`--out` needs a folder path, got an empty string")
@@ -811,7 +848,7 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
 
 def cmd_show(args) -> int:
     system = resolve_model(args.model)
-    is_file = args.model.endswith(".toml") or "/" in args.model or Path(args.model).exists()
+    is_file = _is_model_file(args.model) or Path(args.model).exists()
     description = describe_model_file(Path(args.model)) if is_file else None
     if args.out is not None:
         out = Path(args.out)
