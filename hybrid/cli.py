@@ -34,6 +34,7 @@ from ._io import (
 from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, periodic_orbit
+from ._plothints import plot_hints
 from ._progress import ProgressBar
 from ._record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
 from ._simulate import SimulationError, initial_state, simulate
@@ -363,7 +364,7 @@ def cmd_simulate(args) -> int:
     # (the last periods; the whole run, up to the in-memory cap, for a model without a period) and a
     # min/max envelope of the displacements for its whole-run panel.
     keep_last = min(PLOT_PERIODS * period, t_end) if period else t_end
-    displacements = list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    displacements = list(plot_hints(system)["displacements"])
     history = (
         None
         if args.no_plot
@@ -500,7 +501,7 @@ def _output_dir(system: HybridSystem, args) -> Path:
 
 def _unit(system: HybridSystem, name: str) -> str:
     units = {v.name: v.unit for v in system.variables}
-    return units.get(name) or system.plot.get("units", {}).get(name, "")
+    return units.get(name) or plot_hints(system)["units"].get(name, "")
 
 
 def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
@@ -638,7 +639,7 @@ def _frc_text(fr, preset: str | None) -> str:
         + (", ".join(f"{w:.6g}" for w in fr.resonances) or "none")
         + " rad/s",
     ]
-    coords = list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    coords = list(plot_hints(system)["displacements"])
     for k, b in enumerate(fr.branches):
         if not b.points:
             lines.append(f"  branch {k}: no point ({b.message})")
