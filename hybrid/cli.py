@@ -99,6 +99,7 @@ def _pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
 
 
 def _choose_preset(system: HybridSystem, preset: str | None) -> str | None:
+    """The preset asked for, else ``standard`` if the model has one, else its first (None if none)."""
     if preset is not None:
         return preset
     if "standard" in system.presets:
@@ -146,7 +147,7 @@ _nonnegative_int = _int_at_least(0)
 
 def _add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
     p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
-    p.add_argument("--preset", help="named parameter set of the model (default: `standard` if it has one)")
+    p.add_argument("--preset", help="named parameter set of the model (default: `standard` if it has one, else its first)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     if omega:
         p.add_argument(
