@@ -147,7 +147,10 @@ _nonnegative_int = _int_at_least(0)
 
 def _add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
     p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
-    p.add_argument("--preset", help="named parameter set of the model (default: `standard` if it has one, else its first)")
+    p.add_argument(
+        "--preset",
+        help="named parameter set of the model (default: `standard` if it has one, else its first)",
+    )
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     if omega:
         p.add_argument(

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-import models
+import hybrid_models
 from hybrid.cli import main
 
 
@@ -18,7 +18,7 @@ def run(argv, capsys):
 
 
 def _coulomb_file(tmp_path: Path, name: str) -> Path:
-    text = (Path(models.__file__).parent / "coulomb.toml").read_text()
+    text = (Path(hybrid_models.__file__).parent / "coulomb.toml").read_text()
     assert 'name = "coulomb"' in text
     path = tmp_path / "evil.toml"
     path.write_text(text.replace('name = "coulomb"', f"name = {name}", 1))
@@ -54,7 +54,7 @@ def test_two_files_with_one_model_name_write_to_two_folders(tmp_path, monkeypatc
     # Two user files that both declare `[model] name = "coulomb"`: each run's results go to a folder
     # named after its file, and neither overwrites the other (nor the built-in's out/coulomb).
     monkeypatch.chdir(tmp_path)
-    text = (Path(models.__file__).parent / "coulomb.toml").read_text()
+    text = (Path(hybrid_models.__file__).parent / "coulomb.toml").read_text()
     (tmp_path / "a").mkdir()
     first, second = tmp_path / "a" / "soft.toml", tmp_path / "stiff.toml"
     first.write_text(text)
@@ -76,7 +76,7 @@ def test_two_files_with_one_model_name_write_to_two_folders(tmp_path, monkeypatc
 @pytest.mark.parametrize("stem", ["..", "."])
 def test_a_file_stem_that_is_no_folder_inside_out_is_refused(stem, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    text = (Path(models.__file__).parent / "coulomb.toml").read_text()
+    text = (Path(hybrid_models.__file__).parent / "coulomb.toml").read_text()
     path = tmp_path / f"{stem}.toml"
     path.write_text(text)
     code, stdout, err = run(["simulate", str(path), "--t-end", "1"], capsys)

@@ -8,16 +8,16 @@ import hybrid._linear
 import hybrid._plothints
 import hybrid._simulate
 import hybrid._system
-import models.averaging
-import models.overlays
+import hybrid_models.averaging
+import hybrid_models.overlays
 
 MODULES = [
     hybrid._simulate,
     hybrid._system,
     hybrid._linear,
     hybrid._plothints,
-    models.overlays,
-    models.averaging,
+    hybrid_models.overlays,
+    hybrid_models.averaging,
 ]
 
 

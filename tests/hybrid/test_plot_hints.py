@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import models
+import hybrid_models
 from hybrid import HybridSystem, Mode, load_system, periodic_orbit, simulate
 from hybrid._plot import orbit_figure, trajectory_figure
 from hybrid._plothints import derived_plot_hints, plot_hints
 from hybrid.cli import main
 
-MODELS = Path(models.__file__).parent
+MODELS = Path(hybrid_models.__file__).parent
 PLOT_KEYS = ("force", "velocity", "displacements", "shade_modes")
 
 
@@ -41,7 +41,7 @@ def _axes_all_have_data(fig) -> None:
 
 @pytest.mark.parametrize("name", ["coulomb", "absorber", "isolator"])
 def test_derived_hints_match_the_hand_written_ones(name, tmp_path):
-    declared = getattr(models, name)().plot
+    declared = getattr(hybrid_models, name)().plot
     system = load_system(_without_plot(name, tmp_path))
     assert dict(system.plot) == {}
     hints = plot_hints(system)
@@ -52,7 +52,7 @@ def test_derived_hints_match_the_hand_written_ones(name, tmp_path):
 
 
 def test_declared_hints_win_and_missing_ones_are_derived():
-    system = models.absorber()
+    system = hybrid_models.absorber()
     assert plot_hints(system)["displacements"] == ["x1", "x2"]  # declared, not the derived x1, x2
     bare = HybridSystem(
         name="half",
