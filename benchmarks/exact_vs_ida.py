@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-import models
+import hybrid_models as models
 from hybrid import SolverOptions, continuation, periodic_orbit
 from hybrid._frc import _cuts, default_range
 from hybrid._linear import natural_frequencies

@@ -45,7 +45,7 @@ def _lib(code: str) -> str:
     """A library call as a script: a raised exception is printed as its type and message (exit code 2)."""
     body = "\n".join("    " + line for line in code.splitlines())
     return (
-        "import sys, models, hybrid\ntry:\n" + body + "\nexcept Exception as exc:\n"
+        "import sys, hybrid_models, hybrid\ntry:\n" + body + "\nexcept Exception as exc:\n"
         "    print(f'{type(exc).__name__}: {exc}', file=sys.stderr)\n    sys.exit(2)"
     )
 
@@ -64,7 +64,7 @@ CASES: list[tuple[str, dict, list[str], list[str]]] = [
     ("output log(x)", {"m.toml": _definitions('q = "log(x)"\n').replace('outputs = ["H"', 'outputs = ["q", "H"')}, ["hybrid", "simulate", "m.toml", "--periods", "1", "--no-plot"], []),
     ("--x0 x1=1e308", {}, ["hybrid", "simulate", "absorber", "--x0", "x1=1e308", "--periods", "1", "--no-plot"], []),
     ("grazing guard sign(v) in periodic_orbit", {}, [PY, "-c", _lib("from hybrid import HybridSystem, Mode, Transition\nrhs = {'x': 'v', 'v': '-x - 0.1*v + cos(W*t)'}\ns = HybridSystem(name='relay', variables=['x', 'v'], parameters=['W'], modes=[Mode('up', derivatives=rhs), Mode('down', derivatives=rhs)], transitions=[Transition('up', 'down', guard='sign(v)', direction=-1, name='fall'), Transition('down', 'up', guard='sign(v)', direction=1, name='rise')], period='2*pi/W', initial_mode='up')\nprint(hybrid.periodic_orbit(s, {'W': 1.3}, {'x': 0.0, 'v': 0.5}, 'up').message)")], []),
-    ("t_span near 1e17", {}, [PY, "-c", _lib("s = models.coulomb()\np = s.preset('forced')\nprint(hybrid.simulate(s, p, (1e17, 1e17 + 1e3), {'x': 0, 'v': 0}, throw=False).message)")], []),
+    ("t_span near 1e17", {}, [PY, "-c", _lib("s = hybrid_models.coulomb()\np = s.preset('forced')\nprint(hybrid.simulate(s, p, (1e17, 1e17 + 1e3), {'x': 0, 'v': 0}, throw=False).message)")], []),
     ("--out existing file (frc)", {"f.txt": "keep"}, ["hybrid", "frc", "absorber", "--out", "f.txt"], []),
     ("--out /dev/null", {}, ["hybrid", "simulate", "absorber", "--out", "/dev/null"], []),
     ("--out unwritable", {"f.txt": "keep"}, ["hybrid", "orbit", "absorber", "--out", "f.txt/sub"], []),
@@ -75,11 +75,11 @@ CASES: list[tuple[str, dict, list[str], list[str]]] = [
     ("orbit m2 = 1e-9", {}, ["hybrid", "orbit", "absorber", "--set", "m2=1e-9", "--no-plot"], []),
     ("orbit --samples-per-period 1e8", {}, ["hybrid", "orbit", "absorber", "--samples-per-period", "100000000"], []),
     ("simulate --periods 10000", {}, ["hybrid", "simulate", "absorber", "--omega", "0.854", "--periods", "10000"], []),
-    ("t_span (1e15, 1e15 + T)", {}, [PY, "-c", _lib("s = models.coulomb()\np = s.preset('forced')\ntr = hybrid.simulate(s, p, (1e15, 1e15 + 7.85), {'x': 1, 'v': 0}, throw=False)\nprint(tr.status.name, tr.message)")], []),
+    ("t_span (1e15, 1e15 + T)", {}, [PY, "-c", _lib("s = hybrid_models.coulomb()\np = s.preset('forced')\ntr = hybrid.simulate(s, p, (1e15, 1e15 + 7.85), {'x': 1, 'v': 0}, throw=False)\nprint(tr.status.name, tr.message)")], []),
     ("model without a period, long span", {"m.toml": _coulomb(**{'period = "2*pi/Omega"\n': ""})}, ["hybrid", "simulate", "m.toml", "--preset", "forced", "--t-end", "60000000", "--no-plot"], []),
-    ("periodic_orbit(samples_per_period=0)", {}, [PY, "-c", _lib("s = models.absorber()\nprint(hybrid.periodic_orbit(s, s.preset('standard', Omega=0.854), samples_per_period=0).amplitude['x1'])")], []),
-    ("cond(I - M) of a fully stuck orbit", {}, [PY, "-c", _lib("s = models.coulomb()\no = hybrid.periodic_orbit(s, s.preset('free'))\nprint(o.condition, o.message)")], []),
-    ("progress callback raises", {}, [PY, "-c", "import models, hybrid\ns = models.coulomb()\ndef cb(f): raise KeyError('mine')\ntry:\n    hybrid.simulate(s, s.preset('forced'), (0, 10), {'x': 0, 'v': 0}, progress=cb, throw=False)\nexcept KeyError as e:\n    print('propagated', e)"], []),
+    ("periodic_orbit(samples_per_period=0)", {}, [PY, "-c", _lib("s = hybrid_models.absorber()\nprint(hybrid.periodic_orbit(s, s.preset('standard', Omega=0.854), samples_per_period=0).amplitude['x1'])")], []),
+    ("cond(I - M) of a fully stuck orbit", {}, [PY, "-c", _lib("s = hybrid_models.coulomb()\no = hybrid.periodic_orbit(s, s.preset('free'))\nprint(o.condition, o.message)")], []),
+    ("progress callback raises", {}, [PY, "-c", "import hybrid_models, hybrid\ns = hybrid_models.coulomb()\ndef cb(f): raise KeyError('mine')\ntry:\n    hybrid.simulate(s, s.preset('forced'), (0, 10), {'x': 0, 'v': 0}, progress=cb, throw=False)\nexcept KeyError as e:\n    print('propagated', e)"], []),
     ("orbit at the stick resonance 0.8543090", {}, ["hybrid", "orbit", "absorber", "--omega", "0.8543090", "--no-plot"], []),
     ("F = 100 N", {}, ["hybrid", "simulate", "absorber", "--set", "F=100", "--periods", "5", "--no-plot"], []),
     ("c3 = 1e9", {}, ["hybrid", "simulate", "absorber", "--set", "c3=1e9", "--periods", "5", "--no-plot"], []),

@@ -12,7 +12,7 @@ continuation neighbour) and returns the orbit's state and its Floquet multiplier
   tighter;
 * paper: the Karnopp model (Eqs. 10-13, nu = 1e-5 m/s) through ``scipy.integrate.solve_ivp``
   (DOP853, rtol 1e-10), Newton shooting with a central finite-difference Jacobian
-  (:func:`models.karnopp.shoot_karnopp`), from the previous Karnopp orbit.
+  (:func:`hybrid_models.karnopp.shoot_karnopp`), from the previous Karnopp orbit.
 
 Accuracy is measured in the same run against tight-tolerance orbits (engine, rtol 1e-12, tol
 1e-11) at the same section time: the largest error of the section state relative to its largest
@@ -41,9 +41,9 @@ import time
 
 import numpy as np
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, periodic_orbit, simulate
-from models.karnopp import shoot_karnopp
+from hybrid_models.karnopp import shoot_karnopp
 
 STATE = ["x1", "v1", "x2", "v2", "u"]
 OMEGAS = np.round(np.arange(0.8555, 0.85389, -1e-4), 6)
@@ -60,7 +60,7 @@ def floquet(o):
 
 
 def main() -> None:
-    absorber = models.absorber()
+    absorber = hybrid_models.absorber()
     names = absorber.variable_names
     idx = [names.index(n) for n in STATE]
     params = [absorber.preset("standard", Omega=float(w)) for w in OMEGAS]
@@ -164,7 +164,7 @@ def branch() -> None:
     """Median time per orbit from a continuation neighbour, IDA and exact vs the paper's approach."""
     import os
 
-    absorber = models.absorber()
+    absorber = hybrid_models.absorber()
     names = absorber.variable_names
     idx = [names.index(n) for n in STATE]
     base = absorber.preset("standard")

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, simulate
-from models.karnopp import simulate_karnopp
+from hybrid_models.karnopp import simulate_karnopp
 
 PERIODS = 50
 REPEAT = 3
@@ -34,7 +34,7 @@ def best_time(fn):
 
 
 def main() -> None:
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     T = 2 * np.pi / p["Omega"]
     t_end = PERIODS * T

@@ -126,9 +126,9 @@ def natural_frequencies(
 
     Examples
     --------
-    >>> import models
+    >>> import hybrid_models
     >>> from hybrid._linear import natural_frequencies
-    >>> absorber = models.absorber()
+    >>> absorber = hybrid_models.absorber()
     >>> natural_frequencies(absorber, absorber.preset("standard")).round(4)
     array([0.8543, 1.1705])
     """

@@ -5,7 +5,9 @@ of the non-smooth element against time and against its relative velocity,
 with the phases of the shaded modes (stick) marked, above the displacement
 history. :func:`plot_orbit` draws the same for one period of a periodic
 orbit, with its Floquet multipliers. Which outputs to draw comes from the
-model's ``plot`` hints.
+model's ``plot`` hints, completed by :func:`hybrid._plothints.plot_hints`
+(derived from the model where it gives none); a model without a switching
+quantity to draw gets the displacement panels only, never an empty axis.
 """
 
 from __future__ import annotations
@@ -16,15 +18,16 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ._plothints import plot_hints
 from ._record import Envelope
 from ._trajectory import Trajectory
 
-__all__ = ["plot_trajectory", "plot_orbit"]
+__all__ = ["plot_trajectory", "plot_orbit", "trajectory_figure", "orbit_figure"]
 
 
 def _label(traj: Trajectory, name: str) -> str:
     units = {v.name: v.unit for v in traj.system.variables}
-    unit = units.get(name) or traj.system.plot.get("units", {}).get(name, "")
+    unit = units.get(name) or plot_hints(traj.system).get("units", {}).get(name, "")
     return f"{name} [{unit}]" if unit else name
 
 
@@ -47,15 +50,38 @@ def _shade_modes(ax, traj: Trajectory, shade: set, t_lo: float = -float("inf")) 
 def plot_trajectory(
     traj: Trajectory, path: str | Path, *, last_periods: float = 4.0, history: Envelope | None = None
 ) -> Path:
-    """Write the stick-slip figure of a trajectory as PNG.
+    """Write the stick-slip figure of a trajectory as PNG (see :func:`trajectory_figure`).
+
+    Parameters
+    ----------
+    traj : Trajectory
+        As :func:`trajectory_figure`.
+    path : str or Path
+        PNG file to write.
+    last_periods : float
+        As :func:`trajectory_figure`.
+    history : Envelope, optional
+        As :func:`trajectory_figure`.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    trajectory_figure(traj, last_periods=last_periods, history=history).savefig(path, dpi=110)
+    return path
+
+
+def trajectory_figure(
+    traj: Trajectory, *, last_periods: float = 4.0, history: Envelope | None = None
+) -> Figure:
+    """The stick-slip figure of a trajectory.
 
     Parameters
     ----------
     traj : Trajectory
         Result of :func:`hybrid.simulate`; the windowed panels draw its
         samples (a streamed run needs to have kept the window).
-    path : str or Path
-        PNG file to write.
     last_periods : float
         Window of the force plots, in forcing periods at the end of the run
         (the whole run if the model has no period).
@@ -68,26 +94,26 @@ def plot_trajectory(
 
     Returns
     -------
-    Path
+    matplotlib.figure.Figure
     """
     system = traj.system
-    hints = system.plot
+    hints = plot_hints(system)
     force = hints.get("force")
     vel = hints.get("velocity")
-    disp = list(hints.get("displacements", ())) or [traj.names[0]]
-    shade = set(hints.get("shade_modes", ()))
+    disp = list(hints["displacements"])
+    shade = set(hints["shade_modes"])
     period = system.period_value(traj.params)
     t = traj.t
     t_lo = max(traj.t_start, traj.t_final - last_periods * period) if period else traj.t_start
     win = t >= t_lo
 
-    fig = _new_figure((11, 7.5))
-    gs = fig.add_gridspec(2, 2)
-    ax_w = fig.add_subplot(gs[1, 0])  # displacements in the window
-    ax_x = fig.add_subplot(gs[1, 1])  # displacement history of the whole run
+    # without a switching quantity to draw, the displacement panels take the whole figure
+    fig = _new_figure((11, 7.5) if force else (11, 4.2))
+    gs = fig.add_gridspec(2 if force else 1, 2)
+    ax_w = fig.add_subplot(gs[-1, 0])  # displacements in the window
+    ax_x = fig.add_subplot(gs[-1, 1])  # displacement history of the whole run
     if force:
-        ax_t = fig.add_subplot(gs[0, 0])
-        ax_v = fig.add_subplot(gs[0, 1])
+        ax_t = fig.add_subplot(gs[0, :] if not vel else gs[0, 0])
         H = traj[force]
         ax_t.plot(t[win], H[win], color="C0", lw=1.2)
         ax_t.set_xlabel("t [s]")
@@ -95,14 +121,15 @@ def plot_trajectory(
         ax_t.set_title(
             f"{force} against time (last {last_periods:g} periods)" if period else f"{force} against time"
         )
+        ax_t.grid(alpha=0.3)
         if vel:
+            ax_v = fig.add_subplot(gs[0, 1])
             ax_v.plot(traj[vel][win], H[win], color="C0", lw=1.2)
             ax_v.set_xlabel(_label(traj, vel))
             ax_v.set_ylabel(_label(traj, force))
             ax_v.set_title(f"{force} against {vel} (same window; stick: {vel} = 0)")
             ax_v.axvline(0.0, color="0.6", lw=0.6)
-        for ax in (ax_t, ax_v):
-            ax.grid(alpha=0.3)
+            ax_v.grid(alpha=0.3)
         if _shade_modes(ax_t, traj, shade, t_lo):
             ax_t.legend(loc="upper right", fontsize=8)
     # draw the first displacement last so that it stays visible on top of larger ones
@@ -124,18 +151,11 @@ def plot_trajectory(
         ax.legend(loc="upper left", fontsize=8)
     params = ", ".join(f"{k}={v:g}" for k, v in traj.params.items())
     fig.suptitle(f"{system.title or system.name}\n{params}", fontsize=10)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    return path
+    return fig
 
 
 def plot_orbit(orbit, path: str | Path) -> Path:
-    """Write the figure of one period of a periodic orbit as PNG.
-
-    Panels: the force of the non-smooth element against time and against its
-    relative velocity (if the model's ``plot`` hints name them), the
-    displacements against time (phases of the ``shade_modes`` shaded), and
-    the multipliers in the complex plane with the unit circle.
+    """Write the figure of one period of a periodic orbit as PNG (see :func:`orbit_figure`).
 
     Parameters
     ----------
@@ -148,21 +168,43 @@ def plot_orbit(orbit, path: str | Path) -> Path:
     -------
     Path
     """
+    path = Path(path)
+    orbit_figure(orbit).savefig(path, dpi=110)
+    return path
+
+
+def orbit_figure(orbit) -> Figure:
+    """The figure of one period of a periodic orbit.
+
+    Panels: the force of the non-smooth element against time and against its
+    relative velocity (if the model's ``plot`` hints name them), the
+    displacements against time (phases of the ``shade_modes`` shaded), and
+    the multipliers in the complex plane with the unit circle.
+
+    Parameters
+    ----------
+    orbit : PeriodicOrbit
+        A converged result of :func:`hybrid.periodic_orbit` (it has a trajectory).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     traj = orbit.trajectory
     system = orbit.system
-    hints = system.plot
+    hints = plot_hints(system)
     force = hints.get("force")
     vel = hints.get("velocity")
-    disp = list(hints.get("displacements", ())) or [traj.names[0]]
-    shade = set(hints.get("shade_modes", ()))
+    disp = list(hints["displacements"])
+    shade = set(hints["shade_modes"])
     t = traj.t
 
-    fig = _new_figure((11, 7.5))
-    gs = fig.add_gridspec(2, 2)
-    ax_d = fig.add_subplot(gs[1, 0])
-    ax_m = fig.add_subplot(gs[1, 1])
+    fig = _new_figure((11, 7.5) if force else (11, 4.2))
+    gs = fig.add_gridspec(2 if force else 1, 2)
+    ax_d = fig.add_subplot(gs[-1, 0])
+    ax_m = fig.add_subplot(gs[-1, 1])
     if force:
-        ax_t = fig.add_subplot(gs[0, 0], sharex=ax_d)
+        ax_t = fig.add_subplot(gs[0, :] if not vel else gs[0, 0], sharex=ax_d)
         H = traj[force]
         ax_t.plot(t, H, color="C0", lw=1.2)
         ax_t.set_ylabel(_label(traj, force))
@@ -221,6 +263,4 @@ def plot_orbit(orbit, path: str | Path) -> Path:
         f"{orbit.transitions_per_period} switches per period\n{params}",
         fontsize=10,
     )
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    return path
+    return fig

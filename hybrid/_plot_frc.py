@@ -21,6 +21,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ._frc import FrequencyResponse
 from ._plot import _new_figure
+from ._plothints import plot_hints
 
 __all__ = ["plot_frc", "zoom_windows"]
 
@@ -186,7 +187,8 @@ def plot_frc(
     grid : ndarray, optional
         Frequencies of the overlay values [rad/s].
     coordinates : list of str, optional
-        Coordinates to draw (default: the model's ``plot.displacements``).
+        Coordinates to draw (default: the model's ``plot.displacements``, or those derived by
+        :func:`hybrid._plothints.plot_hints`).
 
     Returns
     -------
@@ -194,7 +196,7 @@ def plot_frc(
     """
     system = fr.system
     overlays = overlays or {}
-    coords = coordinates or list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    coords = coordinates or list(plot_hints(system)["displacements"])
     units = {v.name: v.unit for v in system.variables}
     zooms = zoom_windows(fr)
     ncol = 1 + len(zooms)

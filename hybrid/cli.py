@@ -34,6 +34,7 @@ from ._io import (
 from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit
+from ._plothints import plot_hints
 from ._progress import ProgressBar
 from ._record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
 from ._shooting import periodic_orbit
@@ -45,6 +46,8 @@ __all__ = ["main", "resolve_model"]
 ENTRY_POINT_GROUP = "hybrid.models"
 #: Largest `--samples-per-period` (a period of `orbit` is held in memory; `simulate` keeps 4 of them).
 MAX_SAMPLES_PER_PERIOD = 100_000
+#: Help of `--out` (see `default_output_dir`).
+OUT_HELP = "output folder (default out/NAME: the built-in model's name, or the stem of the model file)"
 #: Forcing periods at the end of a `simulate` run kept in memory for its figure.
 PLOT_PERIODS = 4.0
 #: Time buckets of the whole-run panel of the `simulate` figure.
@@ -60,10 +63,16 @@ def builtin_models() -> dict[str, object]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
+def _is_model_file(name: str, builtin: dict | None = None) -> bool:
+    """Whether MODEL names a model file (a path) rather than a built-in model."""
+    eps = builtin_models() if builtin is None else builtin
+    return name.endswith(".toml") or "/" in name or (name not in eps and Path(name).exists())
+
+
 def resolve_model(name: str) -> HybridSystem:
     """A built-in model by name, or a model file by path."""
     eps = builtin_models()
-    if name.endswith(".toml") or "/" in name or (name not in eps and Path(name).exists()):
+    if _is_model_file(name, eps):
         return load_system(Path(name))
     if name not in eps:
         have = ", ".join(sorted(eps)) or "none installed"
@@ -91,6 +100,7 @@ def _pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
 
 
 def _choose_preset(system: HybridSystem, preset: str | None) -> str | None:
+    """The preset asked for, else ``standard`` if the model has one, else its first (None if none)."""
     if preset is not None:
         return preset
     if "standard" in system.presets:
@@ -138,7 +148,10 @@ _nonnegative_int = _int_at_least(0)
 
 def _add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
     p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
-    p.add_argument("--preset", help="named parameter set of the model (default: `standard` if it has one)")
+    p.add_argument(
+        "--preset",
+        help="named parameter set of the model (default: `standard` if it has one, else its first)",
+    )
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
     if omega:
         p.add_argument(
@@ -223,7 +236,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=100,
         help="output samples per period (default 100, at most 100000)",
     )
-    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     p.add_argument(
@@ -251,7 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=512,
         help="samples of the period (default 512, at most 100000)",
     )
-    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print the orbit as JSON on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     _add_budget(p)
@@ -275,7 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
         "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     _add_tolerances(p)
-    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     p.add_argument(
@@ -356,7 +369,7 @@ def cmd_simulate(args) -> int:
     # (the last periods; the whole run, up to the in-memory cap, for a model without a period) and a
     # min/max envelope of the displacements for its whole-run panel.
     keep_last = min(PLOT_PERIODS * period, t_end) if period else t_end
-    displacements = list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    displacements = list(plot_hints(system)["displacements"])
     history = (
         None
         if args.no_plot
@@ -433,19 +446,48 @@ def _announce(system: HybridSystem, preset: str | None, params: dict[str, float]
         )
 
 
+def default_output_dir(system: HybridSystem, model: str) -> Path:
+    """The default output folder of MODEL: ``out/<file stem>`` for a model file, else ``out/<name>``.
+
+    A model given as a file is named after the file, not after its ``[model] name``: two files
+    declaring the same name keep their results apart. The folder must lie directly inside ``out/``,
+    so that neither a file name nor a model name can direct output elsewhere.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        The resolved model.
+    model : str
+        MODEL as given on the command line (a built-in name or a path).
+
+    Returns
+    -------
+    Path
+        ``out/<folder>``, relative to the working directory.
+
+    Raises
+    ------
+    UsageError
+        The folder would not lie directly inside ``out/``.
+    """
+    folder = Path(model).stem if _is_model_file(model) else system.name
+    out = Path("out") / folder
+    if not folder.isprintable() or folder in ("", ".", "..") or out.resolve().parent != Path("out").resolve():
+        raise UsageError(
+            f"{folder!r} does not name a folder inside out/: rename the model file or give --out"
+        )
+    return out
+
+
 def _output_dir(system: HybridSystem, args) -> Path:
     """The output folder, created and checked writable before any computation.
 
-    ``--out`` if given, else ``out/<model name>``; the model name is checked
-    at load time (letters, digits, ``_`` and ``-`` only), and the folder must
-    still lie inside ``out/``, so a model file cannot direct output elsewhere.
+    ``--out`` if given, else :func:`default_output_dir` (``out/<file stem>`` for a model file,
+    ``out/<model name>`` for a built-in model), checked to lie inside ``out/``, so a model
+    file cannot direct output elsewhere.
     """
     if args.out is None:
-        out = Path("out") / system.name
-        if (
-            out.resolve().parent != Path("out").resolve()
-        ):  # pragma: no cover - model names are checked when the model is built
-            raise UsageError(f"model name {system.name!r} does not name a folder inside out/")
+        out = default_output_dir(system, args.model)
     else:
         if not args.out.strip():
             raise UsageError("`--out` needs a folder path, got an empty string")
@@ -464,7 +506,7 @@ def _output_dir(system: HybridSystem, args) -> Path:
 
 def _unit(system: HybridSystem, name: str) -> str:
     units = {v.name: v.unit for v in system.variables}
-    return units.get(name) or system.plot.get("units", {}).get(name, "")
+    return units.get(name) or plot_hints(system)["units"].get(name, "")
 
 
 def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
@@ -602,7 +644,7 @@ def _frc_text(fr, preset: str | None) -> str:
         + (", ".join(f"{w:.6g}" for w in fr.resonances) or "none")
         + " rad/s",
     ]
-    coords = list(system.plot.get("displacements", ())) or [system.variable_names[0]]
+    coords = list(plot_hints(system)["displacements"])
     for k, b in enumerate(fr.branches):
         if not b.points:
             lines.append(f"  branch {k}: no point ({b.message})")
@@ -812,7 +854,7 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
 
 def cmd_show(args) -> int:
     system = resolve_model(args.model)
-    is_file = args.model.endswith(".toml") or "/" in args.model or Path(args.model).exists()
+    is_file = _is_model_file(args.model) or Path(args.model).exists()
     description = describe_model_file(Path(args.model)) if is_file else None
     if args.out is not None:
         out = Path(args.out)

@@ -36,7 +36,7 @@ def isolator() -> HybridSystem:
 
 
 def coulomb() -> HybridSystem:
-    """1-DOF oscillator with Coulomb friction to ground; presets ``free``, ``forced``."""
+    """1-DOF oscillator with Coulomb friction to ground; presets ``forced`` (the default), ``free``."""
     return _load("coulomb")
 
 

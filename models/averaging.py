@@ -18,7 +18,7 @@ its fixed points are the frequency-response curves, its Jacobian their stability
 Conventions
 -----------
 * Parameters are the models' preset dicts: ``m1, m2`` [kg], ``c1, c2, c3`` [N/m], ``R, F`` [N],
-  ``Omega`` [rad/s] (e.g. ``models.absorber().preset("standard")``).
+  ``Omega`` [rad/s] (e.g. ``hybrid_models.absorber().preset("standard")``).
 * Time is scaled by ``k = sqrt(c1/m1)`` (``tau = k t``, ``eta = Omega/k``); lengths are **not**
   scaled: ``x1, x2, z1, z2, q, A`` are in metres, and so are ``eps rho`` and ``eps f``
   (``rho``, ``f`` are metres divided by ``eps``). ``mu, p, kappa, eta`` are dimensionless.
@@ -157,8 +157,8 @@ def nondimensional(model: str, params: dict[str, float], eps: float = EPS) -> No
 
     Examples
     --------
-    >>> import models
-    >>> nd = nondimensional("absorber", models.absorber().preset("standard"))
+    >>> import hybrid_models
+    >>> nd = nondimensional("absorber", hybrid_models.absorber().preset("standard"))
     >>> round(nd.kappa, 2), round(nd.rho, 2), nd.f
     (0.99, 4.95, 1.0)
     """

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import OdeSolution, solve_ivp
 from scipy.optimize import brentq
 
-from models.linear import check_model, check_params
+from hybrid_models.linear import check_model, check_params
 
 _KEYS = ("m1", "m2", "c1", "c2", "c3", "R", "F", "Omega")
 Rhs = Callable[[float, NDArray[np.float64]], NDArray[np.float64]]
@@ -518,13 +518,13 @@ def shoot_karnopp(
     Examples
     --------
     A damper that never slips (``R`` huge) has the linear stick response of
-    :func:`models.linear.stick_response`, with a free offset and so a multiplier 1:
+    :func:`hybrid_models.linear.stick_response`, with a free offset and so a multiplier 1:
 
     >>> import numpy as np
-    >>> import models
-    >>> from models.karnopp import shoot_karnopp
-    >>> from models.linear import stick_amplitudes
-    >>> p = dict(models.absorber().preset("standard"), R=1e6, Omega=0.5)
+    >>> import hybrid_models
+    >>> from hybrid_models.karnopp import shoot_karnopp
+    >>> from hybrid_models.linear import stick_amplitudes
+    >>> p = dict(hybrid_models.absorber().preset("standard"), R=1e6, Omega=0.5)
     >>> orbit = shoot_karnopp("absorber", p, np.zeros(5))
     >>> orbit.converged, orbit.iterations
     (True, 1)

@@ -69,9 +69,9 @@ def absorber(params: dict, omega: ArrayLike) -> dict[str, dict[str, NDArray]]:
 
     Examples
     --------
-    >>> import numpy as np, models
-    >>> from models.overlays import absorber
-    >>> c = absorber(models.absorber().preset("standard"), np.array([0.5]))
+    >>> import numpy as np, hybrid_models
+    >>> from hybrid_models.overlays import absorber
+    >>> c = absorber(hybrid_models.absorber().preset("standard"), np.array([0.5]))
     >>> round(float(c["linear stick system (Eqs. A.1-A.2)"]["x1"][0]), 6)
     0.013953
     """

@@ -39,6 +39,26 @@ def test_simulate_writes_csv_figure_and_json(tmp_path, capsys):
     assert {r[1] for r in rows[1:]} <= {"stick", "slip+", "slip-"}
 
 
+def test_coulomb_runs_forced_by_default_and_free_on_request(tmp_path, capsys):
+    # the default preset of the built-in coulomb is `forced` (F > 0: the figure shows stick-slip);
+    # `free` (F = 0, a free decay) stays available
+    code, out, err = run(
+        ["simulate", "coulomb", "--periods", "3", "--no-plot", "--out", str(tmp_path), "--json"], capsys
+    )
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary["preset"] == "forced" and summary["parameters"]["F"] == 0.5
+    assert summary["transitions"] > 0 and summary["input_work"] > 0
+    code, out, err = run(
+        ["simulate", "coulomb", "--preset", "free", "--t-end", "5", "--x0", "x=1", "--no-plot"]
+        + ["--out", str(tmp_path), "--json"],
+        capsys,
+    )
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary["preset"] == "free" and summary["parameters"]["F"] == 0.0 and summary["input_work"] == 0.0
+
+
 def test_set_and_omega_override_the_preset(tmp_path, capsys):
     code, out, err = run(
         [

@@ -2,11 +2,12 @@
 output folders checked before any computation, one-line errors with exit code 2.
 """
 
+import json
 from pathlib import Path
 
 import pytest
 
-import models
+import hybrid_models
 from hybrid.cli import main
 
 
@@ -17,7 +18,7 @@ def run(argv, capsys):
 
 
 def _coulomb_file(tmp_path: Path, name: str) -> Path:
-    text = (Path(models.__file__).parent / "coulomb.toml").read_text()
+    text = (Path(hybrid_models.__file__).parent / "coulomb.toml").read_text()
     assert 'name = "coulomb"' in text
     path = tmp_path / "evil.toml"
     path.write_text(text.replace('name = "coulomb"', f"name = {name}", 1))
@@ -47,6 +48,41 @@ def test_default_output_folder_is_out_slash_model_name(tmp_path, monkeypatch, ca
         "summary.json",
         "trajectory.csv",
     ]
+
+
+def test_two_files_with_one_model_name_write_to_two_folders(tmp_path, monkeypatch, capsys):
+    # Two user files that both declare `[model] name = "coulomb"`: each run's results go to a folder
+    # named after its file, and neither overwrites the other (nor the built-in's out/coulomb).
+    monkeypatch.chdir(tmp_path)
+    text = (Path(hybrid_models.__file__).parent / "coulomb.toml").read_text()
+    (tmp_path / "a").mkdir()
+    first, second = tmp_path / "a" / "soft.toml", tmp_path / "stiff.toml"
+    first.write_text(text)
+    second.write_text(text.replace("k = 1.0\nR = 0.1\nF = 0.5", "k = 4.0\nR = 0.1\nF = 0.5"))
+    assert second.read_text() != text
+    for path in (first, second):
+        code, _, err = run(
+            ["simulate", str(path), "--preset", "forced", "--periods", "1", "--no-plot"], capsys
+        )
+        assert code == 0, err
+    out = tmp_path / "out"
+    assert sorted(p.name for p in out.iterdir()) == ["soft", "stiff"]
+    soft = json.loads((out / "soft" / "summary.json").read_text())
+    stiff = json.loads((out / "stiff" / "summary.json").read_text())
+    assert soft["model"] == stiff["model"] == "coulomb"
+    assert soft["parameters"]["k"] == 1.0 and stiff["parameters"]["k"] == 4.0
+
+
+@pytest.mark.parametrize("stem", ["..", "."])
+def test_a_file_stem_that_is_no_folder_inside_out_is_refused(stem, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    text = (Path(hybrid_models.__file__).parent / "coulomb.toml").read_text()
+    path = tmp_path / f"{stem}.toml"
+    path.write_text(text)
+    code, stdout, err = run(["simulate", str(path), "--t-end", "1"], capsys)
+    assert code == 2 and stdout == ""
+    assert "does not name a folder inside out/" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
 @pytest.mark.parametrize(

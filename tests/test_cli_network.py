@@ -4,10 +4,10 @@ accepted, ``hybrid show`` prints the network and the derived automaton, bad file
 import json
 from pathlib import Path
 
-import models
+import hybrid_models
 from hybrid.cli import main
 
-MODEL_DIR = Path(models.__file__).parent
+MODEL_DIR = Path(hybrid_models.__file__).parent
 
 
 def run(argv, capsys):

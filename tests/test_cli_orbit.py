@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, periodic_orbit
 from hybrid.cli import main
-from models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
+from hybrid_models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
 
 
 def run(argv, capsys):
@@ -46,7 +46,7 @@ def test_orbit_pure_stick_matches_the_linear_closed_form(tmp_path, capsys):
     assert d["converged"] and d["transitions_per_period"] == 0 and d["mode_fractions"] == {"stick": 1.0}
     assert d["mode_sequence"] == ["stick"]
     assert math.isclose(d["period"], 2 * math.pi / 0.5, rel_tol=1e-12)
-    a1, a2 = stick_amplitudes(models.absorber().preset("standard", Omega=0.5))
+    a1, a2 = stick_amplitudes(hybrid_models.absorber().preset("standard", Omega=0.5))
     assert abs(d["amplitude"]["x1"] - abs(a1)) <= 1e-6 * abs(a1)
     assert abs(d["amplitude"]["x2"] - abs(a2)) <= 1e-6 * abs(a2)
     # undamped stuck response: every multiplier on the unit circle, marginally stable
@@ -84,7 +84,7 @@ def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
     assert code == 0, err
     d = json.loads(out)
     assert d["converged"] and d["residual"] < 1e-8
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.854)
     assert d["parameters"] == p
     ex = periodic_orbit(
@@ -126,7 +126,7 @@ def test_orbit_text_summary(tmp_path, capsys):
     code, out, err = run(["orbit", "absorber", "--omega", "0.5", "--no-plot", "--out", str(tmp_path)], capsys)
     assert code == 0, err
     assert "stability: neutral" in out
-    p = models.absorber().preset("standard", Omega=0.5)
+    p = hybrid_models.absorber().preset("standard", Omega=0.5)
     a1 = abs(float(stick_amplitudes(p)[0]))
     (printed,) = re.findall(r"^\s+x1\s+(\S+)\s", out, re.MULTILINE)
     assert abs(float(printed) - a1) <= 1e-8 * a1, (printed, a1)
@@ -231,7 +231,7 @@ def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
         "mode_sequence",
     } <= cols
     assert {"max_abs_multiplier", "amplitude_x1", "amplitude_x2", "half_peak_to_peak_x1"} <= cols
-    p = models.absorber().preset("standard")
+    p = hybrid_models.absorber().preset("standard")
     w = np.array([float(r["Omega"]) for r in rows])
     n_sw = np.array([int(r["transitions_per_period"]) for r in rows])
     a1 = np.array([float(r["amplitude_x1"]) for r in rows])

@@ -5,12 +5,20 @@ import doctest
 import pytest
 
 import hybrid._linear
+import hybrid._plothints
 import hybrid._simulate
 import hybrid._system
-import models.averaging
-import models.overlays
+import hybrid_models.averaging
+import hybrid_models.overlays
 
-MODULES = [hybrid._simulate, hybrid._system, hybrid._linear, models.overlays, models.averaging]
+MODULES = [
+    hybrid._simulate,
+    hybrid._system,
+    hybrid._linear,
+    hybrid._plothints,
+    hybrid_models.overlays,
+    hybrid_models.averaging,
+]
 
 
 @pytest.mark.parametrize("module", MODULES, ids=lambda m: m.__name__)

@@ -21,12 +21,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import models
+import hybrid_models
 from hybrid import ModelError, SolverOptions, load_system, simulate, system_from_dict
 from hybrid._expr import FUNCTIONS
 from hybrid.cli import main
 
-MODEL_DIR = Path(models.__file__).parent
+MODEL_DIR = Path(hybrid_models.__file__).parent
 BASES = {name: tomllib.loads((MODEL_DIR / f"{name}.toml").read_text()) for name in ("coulomb", "absorber")}
 INPUTS: Counter = Counter()
 

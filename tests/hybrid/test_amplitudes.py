@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from orbit_problems import forced_linear_2dof
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, periodic_orbit, simulate
 
 
@@ -45,7 +45,7 @@ def test_sampled_maximum_alone_would_miss_the_closed_form():
 
 
 def test_stick_slip_amplitudes_match_a_dense_tight_resimulation():
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.854)
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
     o = periodic_orbit(system, p, options=tight, tol=1e-11)
@@ -75,7 +75,7 @@ def test_an_extremum_just_after_a_switch_is_found():
     of the switch too (it used to return the switch value, 1.05e-5 low). Reference: the largest of
     200 000 samples per period of a tight re-simulation (spacing 3.7e-5 s: its error is below
     v1'' h^2 / 8 ~ 1e-10 relative)."""
-    system = models.isolator()
+    system = hybrid_models.isolator()
     p = system.preset("standard", Omega=0.8528166451871718)
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
     o = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import hybrid._budget as budget_mod
-import models
+import hybrid_models
 from hybrid import (
     HybridSystem,
     Mode,
@@ -30,7 +30,7 @@ def rest(system):
 
 
 def coulomb_forced():
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     return system, system.preset("forced")
 
 
@@ -255,7 +255,7 @@ def test_frequency_response_returns_what_it_has_at_the_deadline(clock):
 def test_time_ranges_below_the_float_resolution_are_refused(t0):
     # before: t0 = 1e15 reported COMPLETED after one step with the state unchanged; 1e17 gave
     # KeyError: -60 from scikit-sundae
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     T = 2 * math.pi / p["Omega"]
     with pytest.raises(ValueError, match=r"floating-point resolution of t near t = 1e\+1[57] s"):
@@ -264,7 +264,7 @@ def test_time_ranges_below_the_float_resolution_are_refused(t0):
 
 def test_a_period_too_short_to_integrate_is_refused():
     # before: `--omega 1e308` gave IDA status -22 after the start
-    system = models.absorber()
+    system = hybrid_models.absorber()
     with pytest.raises(ValueError, match=r"step bound .* is below 1e-100 s"):
         simulate(system, system.preset("standard", Omega=1e200), (0.0, 1e-190), rest(system))
     with pytest.raises(ValueError, match=r"is below 1e-100 s"):
@@ -332,7 +332,7 @@ def test_periodic_orbit_refuses_too_few_samples(n):
 
 def test_condition_of_a_fully_stuck_orbit_is_infinite_not_nan():
     # M = I (every state stays put): I - M = 0; before, cond came out 0/0 = NaN
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     o = periodic_orbit(system, system.preset("free"))
     assert o.converged and np.all(o.monodromy == np.eye(2))
     assert math.isinf(o.condition)
@@ -380,7 +380,7 @@ def test_grazing_switch_is_not_converged_with_the_reason():
 
 def test_an_initial_state_out_of_range_is_refused_before_the_run():
     # before: `--x0 x1=1e308` raised OverflowError from the outputs after the run
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     x0 = {**rest(system), "x1": 1e308}
     with pytest.raises(ValueError, match=r"initial state cannot be evaluated: output `E` .*x1 = 1e\+308"):
@@ -395,14 +395,14 @@ def test_an_initial_state_out_of_range_is_refused_before_the_run():
 def test_a_strong_forcing_from_rest_is_integrated_with_a_small_first_step():
     # before: F = 100 failed at t = 0 with "Error tests failed too many times" (IDA's own first
     # step far too large); now the segment is restarted once with a small first step
-    system = models.absorber()
+    system = hybrid_models.absorber()
     o = periodic_orbit(system, system.preset("standard", F=100.0), transient_periods=2)
     assert o.converged, o.message
 
 
 def test_orbit_at_an_undamped_resonance_says_no_bounded_orbit_and_what_to_try():
     # R = 0 at the resonance of the slipping (linear, undamped) system: no bounded orbit
-    system = models.absorber()
+    system = hybrid_models.absorber()
     o = periodic_orbit(system, system.preset("standard", R=0.0, Omega=0.8525006), max_iter=8)
     assert not o.converged
     assert o.message.startswith("no bounded periodic orbit near the guess: a Floquet multiplier is 1")
@@ -412,7 +412,7 @@ def test_orbit_at_an_undamped_resonance_says_no_bounded_orbit_and_what_to_try():
 def test_newton_failure_names_what_to_try():
     # the exact stick resonance: an orbit exists (found with --transient 1000), Newton from the
     # 10-period transient fails; the message says what to try
-    system = models.absorber()
+    system = hybrid_models.absorber()
     o = periodic_orbit(system, system.preset("standard", Omega=0.8543090), max_iter=5)
     assert not o.converged
     assert "an orbit may still exist: try a longer transient (transient_periods; CLI --transient" in o.message
@@ -420,7 +420,7 @@ def test_newton_failure_names_what_to_try():
 
 def test_switches_decided_within_the_noise_of_the_guards_are_named():
     # c3 = 1e9: the breakaway guards' noise (~3 N) exceeds the band 2R = 1 N between them
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard", c3=1e9)
     tr = simulate(system, p, (0.0, 10.0), rest(system), throw=False)
     assert tr.status == Status.NO_ADMISSIBLE_MODE

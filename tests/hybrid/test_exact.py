@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-import models
+import hybrid_models
 from hybrid import HybridSystem, Mode, Transition
 from hybrid._compiled import CompiledSystem
 from hybrid._dae import ROOT, TSTOP
@@ -119,7 +119,7 @@ def test_step_to_tstop_without_crossing():
 
 
 def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_eliminated():
-    absorber = models.absorber()
+    absorber = hybrid_models.absorber()
     p = absorber.preset("standard", Omega=0.854)
     cs = CompiledSystem(absorber, p)
     for am in affine_system(cs):
@@ -168,7 +168,7 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     (measured: 2.2e-8, 7.1e-10 and 2.2e-8 s = 3e-9 T, the largest at the branch's first point, 0.8532)."""
     from hybrid import SolverOptions, periodic_orbit
 
-    system = getattr(models, name)()
+    system = getattr(hybrid_models, name)()
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
     exact = SolverOptions(integrator="exact")
     prev = None
@@ -207,7 +207,7 @@ def test_parametric_analysis_equals_the_folded_one(name, preset):
     parameter values, gives the M, P, Q, W of the analysis of the expressions with the values folded in."""
     from hybrid._exact import affine_flows
 
-    system = getattr(models, name)()
+    system = getattr(hybrid_models, name)()
     base = system.preset(preset)
     rng = np.random.default_rng(7)
     for _ in range(5):
@@ -280,7 +280,7 @@ def test_cli_integrator_exact(tmp_path, capsys):
 def test_parameters_read_at_call_time_equal_folded_ones(name):
     """A system compiled once with its parameters read at call time (Shooter's continued parameter, the
     pool periodic_orbit borrows from) evaluates as one compiled with the values folded in."""
-    system = getattr(models, name)()
+    system = getattr(hybrid_models, name)()
     base = system.preset("standard")
     rt = CompiledSystem(system, base, runtime=tuple(system.parameter_names))
     rng = np.random.default_rng(3)
@@ -312,7 +312,7 @@ def test_a_whole_exact_band_agrees_with_ida(name):
     other does not (different mode sequences), is skipped: one per band at most."""
     from hybrid import SolverOptions, continuation, periodic_orbit
 
-    system = getattr(models, name)()
+    system = getattr(hybrid_models, name)()
     p = system.preset("standard")
     br = continuation(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message

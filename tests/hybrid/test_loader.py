@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from problems import TIGHT, bouncing_ball
 
-import models
+import hybrid_models
 from hybrid import ModelError, load_system, simulate, system_from_dict
 
 BALL = """\
@@ -70,12 +70,12 @@ def test_small_model_file_loads_and_simulates(tmp_path):
 
 
 def test_builtin_model_files_round_trip_through_system_from_dict():
-    for name in models.BUILTIN:
+    for name in hybrid_models.BUILTIN:
         with resources.as_file(resources.files("models") / f"{name}.toml") as path:
             from_file = load_system(path)
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         assert system_from_dict(data) == from_file
-        assert from_file == models.BUILTIN[name]()
+        assert from_file == hybrid_models.BUILTIN[name]()
         assert from_file.initial_mode == "stick" and from_file.period == "2*pi/Omega"
 
 

@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
-import models
+import hybrid_models
 from hybrid import HybridSystem, Mode, ModelError, SolverOptions, Status, Transition, simulate
 from hybrid._loader import system_from_dict
 from hybrid.cli import main
@@ -50,7 +50,7 @@ def test_a_period_that_cannot_be_evaluated_names_the_period():
 
 
 def test_too_many_samples_is_refused_before_integrating():
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     with pytest.raises(
         ValueError,
@@ -60,7 +60,7 @@ def test_too_many_samples_is_refused_before_integrating():
 
 
 def test_max_transitions_is_exact_and_leaves_a_consistent_final_state():
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     tr = simulate(
         system, system.preset("free"), (0.0, 60.0), {"x": 1.0, "v": 0.0}, max_transitions=3, throw=False
     )

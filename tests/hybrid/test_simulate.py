@@ -23,7 +23,7 @@ from problems import (
     tracker,
 )
 
-import models
+import hybrid_models
 from hybrid import (
     HybridSystem,
     Mode,
@@ -283,7 +283,7 @@ def test_taylor_series_of_a_negative_base_power_in_a_mode():
 # Coulomb oscillator: the successor mode is decided by the vector field (pitfall ii)
 # ----------------------------------------------------------------------------
 def test_free_coulomb_oscillator_decays_by_2R_over_k_and_sticks():
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     params = system.preset("free")  # m = k = 1, R = 0.1, F = 0
     x0 = 1.05
     turning, exact = coulomb_free_exact(params, x0)
@@ -329,7 +329,7 @@ def test_free_coulomb_oscillator_decays_by_2R_over_k_and_sticks():
 def test_coulomb_at_the_friction_limit(x0, n_events):
     # |k x0| <= R: static friction holds for ever (the guard k x -+ R starts at zero and stays there
     # for x0 = +-R/k). Slightly beyond: one slip of half a period to 2R/k - x0, then stick.
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     params = system.preset("free")
     tr = simulate(system, params, (0.0, 10.0), {"x": x0, "v": 0.0}, "stick", options=TIGHT)
     assert tr.success and tr.n_transitions == n_events
@@ -348,7 +348,7 @@ def test_vector_field_selects_the_slip_direction_when_both_guards_are_zero(t0, d
     # R = 0 at x = 0 and sin(Omega t0) = 0: both breakaway guards k x - F sin(Omega t) -+ R are 0.
     # Only the force's derivative tells the direction (sin rises after t0 = 0, falls after pi/Omega).
     # With R = 0 the motion is the linear forced oscillator x'' + x = F sin(Omega t) from rest.
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     params = system.preset("forced", R=0.0)  # m = k = 1, F = 0.5, Omega = 0.8
     F, W = params["F"], params["Omega"]
     t_end = t0 + 20.0
@@ -380,7 +380,7 @@ def test_guard_with_two_crossings_within_one_natural_step_is_detected():
     # Pitfall (iv): in stick the state is constant, so IDA's error control allows any step, while
     # the breakaway guard k x - F sin(Omega t) + R is negative only for |Omega t - pi/2| < acos(R/F)
     # (0.31 rad for F = 1.05 R). The default max_step T/16 (0.39 rad) bounds the step below that.
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     params = system.preset("forced", F=0.105, R=0.1)
     W, F, R = params["Omega"], params["F"], params["R"]
     T = 2 * math.pi / W
@@ -425,7 +425,7 @@ def _H(name, p, x):
 @pytest.fixture(scope="module", params=DAMPERS, ids=[f"{n}-{p}" for n, p, _ in DAMPERS])
 def damper_run(request):
     name, preset, x0 = request.param
-    system = models.BUILTIN[name]()
+    system = hybrid_models.BUILTIN[name]()
     p = system.preset(preset)
     T = 2 * math.pi / p["Omega"]
     tr = simulate(system, p, (0.0, 20 * T), x0, "stick", samples_per_period=8)
@@ -535,7 +535,7 @@ def test_unsolvable_algebraic_equation_is_reported():
 # Sampling and the Trajectory API
 # ----------------------------------------------------------------------------
 def test_samples_per_period_and_event_samples():
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     params = system.preset("forced")
     T = 2 * math.pi / params["Omega"]
     t_end = 3.25 * T
@@ -572,7 +572,7 @@ def test_trajectory_accessors_and_progress():
     assert tr.n_transitions == 0 and tr.mode_intervals() == [(0.0, 3.0, "free")]
     assert "COMPLETED" in repr(tr)
     # outputs of the built-in models are recorded with the samples
-    c = models.coulomb()
+    c = hybrid_models.coulomb()
     p = c.preset("free")
     tr = simulate(c, p, (0.0, 4.0), {"x": 1.05, "v": 0.0}, "stick", options=TIGHT)
     assert np.allclose(tr["E"], 0.5 * tr["v"] ** 2 + 0.5 * tr["x"] ** 2, rtol=1e-14, atol=0)

@@ -9,7 +9,7 @@ import pytest
 
 import hybrid._record as record_module
 import hybrid._simulate as simulate_module
-import models
+import hybrid_models
 from hybrid import (
     Envelope,
     EventsCSVWriter,
@@ -34,7 +34,7 @@ def small_blocks(monkeypatch):
 
 def coulomb(periods: float = 12.0, **kwargs):
     """The forced Coulomb oscillator from rest: stick-slip with about 4 switches per period."""
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     p = system.preset("forced")
     T = system.period_value(p)
     tr = simulate(
@@ -150,7 +150,7 @@ def test_envelope_holds_the_extrema_of_every_bucket(small_blocks):
 
 
 def test_sample_caps_are_checked_before_the_run(monkeypatch):
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     p = system.preset("forced")
     T = system.period_value(p)
     x0 = {"x": 0.0, "v": 0.0}
@@ -182,7 +182,7 @@ def test_sample_caps_are_checked_before_the_run(monkeypatch):
 
 def test_the_in_memory_cap_also_holds_while_the_run_goes_on(monkeypatch):
     monkeypatch.setattr(simulate_module, "MAX_SAMPLES", 40)
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     # 30 sample times pass the check before the run; the switches, sampled on both sides, add more
     tr = simulate(
         system,

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from problems import logistic, nonlinear_dae, riccati
 
-import models
+import hybrid_models
 from hybrid import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
 from hybrid._compiled import CompiledSystem, lead_sign
 
@@ -241,7 +241,7 @@ def test_mode_lookup_and_slave_variables():
     s = _toy()
     with pytest.raises(ValueError, match=r"model `toy` has no mode `fly`; modes: stick, slip"):
         s.mode("fly")
-    absorber = models.absorber()
+    absorber = hybrid_models.absorber()
     assert absorber.algebraic_variables("stick") == ()
     assert absorber.algebraic_variables("slip+") == ("u",)
     assert absorber.algebraic_variables("slip-") == ("u",)
@@ -340,7 +340,7 @@ def _fd_iteration_matrix(cm, t, y, yp, cj, h=1e-6):
 def _jacobian_cases():
     cases = []
     for name, preset in (("absorber", "fig3a"), ("isolator", "fig4a"), ("coulomb", "forced")):
-        s = models.BUILTIN[name]()
+        s = hybrid_models.BUILTIN[name]()
         cases.append(pytest.param(s, s.preset(preset), id=name))
     for make in (riccati, logistic, nonlinear_dae):
         s, p, _, _ = make()
@@ -378,7 +378,7 @@ def test_solve_algebraic_and_consistent_derivatives_of_the_dae():
 
 
 def test_solve_algebraic_of_the_absorber_slip_modes():
-    s = models.absorber()
+    s = hybrid_models.absorber()
     p = s.preset("fig3a")
     cs = CompiledSystem(s, p)
     y = np.array([0.3, -0.2, 0.8, 0.1, 123.0, 0.0, 0.0])
@@ -462,7 +462,7 @@ def test_lead_sign(series, noise, want):
 
 def test_builtin_vector_fields_match_hand_derived_equations():
     # pydy-style: the declarative Coulomb model against its textbook equations.
-    s = models.coulomb()
+    s = hybrid_models.coulomb()
     p = s.preset("forced")
     cs = CompiledSystem(s, p)
     rng = np.random.default_rng(3)

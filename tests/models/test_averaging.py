@@ -1,4 +1,4 @@
-"""Tests of the averaging model (models.averaging), Sec. 4 and App. D of [1].
+"""Tests of the averaging model (hybrid_models.averaging), Sec. 4 and App. D of [1].
 
 Every expected value comes from an independent route, built here from the physical
 parameters only:
@@ -25,11 +25,11 @@ import scipy.linalg
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar, root
 
-import models
-from models import averaging as av
+import hybrid_models
+from hybrid_models import averaging as av
 
-ABSORBER = models.absorber().preset("standard")
-ISOLATOR = models.isolator().preset("standard")
+ABSORBER = hybrid_models.absorber().preset("standard")
+ISOLATOR = hybrid_models.isolator().preset("standard")
 PARAMS = {"absorber": ABSORBER, "isolator": ISOLATOR}
 CASES = [(m, i) for m in ("absorber", "isolator") for i in (1, 2)]
 N_QUAD = 2**16

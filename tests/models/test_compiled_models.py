@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import models
+import hybrid_models
 from hybrid._compiled import CompiledSystem
 
 
 @pytest.fixture(params=["absorber", "isolator", "coulomb"])
 def compiled(request):
-    system = models.BUILTIN[request.param]()
+    system = hybrid_models.BUILTIN[request.param]()
     preset = "forced" if request.param == "coulomb" else "standard"
     return CompiledSystem(system, system.preset(preset))
 

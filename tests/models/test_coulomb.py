@@ -8,16 +8,16 @@ first turning point with |x| <= R/k. Reference: models/coulomb_exact.py (closed 
 import numpy as np
 import pytest
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, simulate
-from models.coulomb_exact import free_response, stop_position, stop_time
+from hybrid_models.coulomb_exact import free_response, stop_position, stop_time
 
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
 
 
 @pytest.mark.parametrize("x0", [1.0, -0.73, 2.55])
 def test_free_coulomb_oscillator_matches_the_exact_piecewise_solution(x0):
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     p = system.preset("free")  # m = 1 kg, k = 1 N/m, R = 0.1 N, F = 0
     m, k, R = p["m"], p["k"], p["R"]
     t_stop = stop_time(m, k, R, x0)
@@ -43,7 +43,7 @@ def test_free_coulomb_oscillator_matches_the_exact_piecewise_solution(x0):
 
 
 def test_inside_the_static_band_the_oscillator_never_moves():
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     p = system.preset("free")
     tr = simulate(system, p, (0.0, 10.0), {"x": 0.09, "v": 0.0}, "stick")
     assert tr.n_transitions == 0

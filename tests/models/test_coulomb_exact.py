@@ -1,4 +1,4 @@
-"""Tests of the exact Coulomb-oscillator free response (models.coulomb_exact)."""
+"""Tests of the exact Coulomb-oscillator free response (hybrid_models.coulomb_exact)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.coulomb_exact import free_response, half_cycles, stop_position, stop_time
+from hybrid_models.coulomb_exact import free_response, half_cycles, stop_position, stop_time
 
 CASES = [
     # m [kg], k [N/m], R [N], x0 [m]

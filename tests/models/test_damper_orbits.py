@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import hybrid
-import models
+import hybrid_models
 from hybrid import SolverOptions, periodic_orbit, simulate
-from models.linear import stick_amplitudes
+from hybrid_models.linear import stick_amplitudes
 
 #: Tolerances of the absorber's orbit and of the finite-difference period maps.
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
@@ -46,7 +46,7 @@ def period_map(orbit, y: np.ndarray) -> tuple[np.ndarray, str]:
 
 @pytest.fixture(scope="module")
 def absorber_orbit():
-    system = models.absorber()
+    system = hybrid_models.absorber()
     return periodic_orbit(system, system.preset("standard", Omega=0.854), options=TIGHT)
 
 
@@ -141,7 +141,7 @@ def test_absorber_perturbation_decays_as_the_multipliers_predict(absorber_orbit)
     ],
 )
 def test_pure_stick_orbit_is_the_linear_closed_form(model, Omega, gauge):
-    system = models.BUILTIN[model]()
+    system = hybrid_models.BUILTIN[model]()
     params = system.preset("standard", Omega=Omega)
     o = periodic_orbit(system, params)
     assert o.converged, o.message

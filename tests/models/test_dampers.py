@@ -11,9 +11,9 @@ import pytest
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, simulate
-from models.linear import stick_amplitudes, stick_response
+from hybrid_models.linear import stick_amplitudes, stick_response
 
 TIGHT = SolverOptions(rtol=1e-11, atol=1e-13)
 NAMES = ("x1", "v1", "x2", "v2", "u")
@@ -26,7 +26,7 @@ def _state(y5):
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
 @pytest.mark.parametrize("omega", [0.5, 0.854, 1.3])
 def test_never_slipping_element_gives_the_linear_steady_state(name, omega):
-    system = models.BUILTIN[name]()
+    system = hybrid_models.BUILTIN[name]()
     p = system.preset("standard", R=1e6, Omega=omega)
     T = 2 * np.pi / omega
     t_eval = np.linspace(0.0, 5 * T, 201)
@@ -42,7 +42,7 @@ def test_never_slipping_element_gives_the_linear_steady_state(name, omega):
 
 
 def _stick_slip_run(name, periods, options):
-    system = models.BUILTIN[name]()
+    system = hybrid_models.BUILTIN[name]()
     p = system.preset("standard")
     T = 2 * np.pi / p["Omega"]
     if name == "absorber":
@@ -211,7 +211,7 @@ def stuck_absorber_from_rest(p, t):
     """Closed-form motion of the stuck absorber released from rest at t = 0 (x = v = 0, u = x2).
 
     Stuck, u = x2 and the two masses form the undamped chain M x'' + K x = (F sin(W t), 0) with
-    M = diag(m1, m2), K = [[c1 + c2, -c2], [-c2, c2]] (models.karnopp's free-body diagrams with u = x2).
+    M = diag(m1, m2), K = [[c1 + c2, -c2], [-c2, c2]] (hybrid_models.karnopp's free-body diagrams with u = x2).
     Its solution is the forced part of App. A (A1, A2 sin(W t), stick_amplitudes, which vanishes at
     t = 0) plus free modes phi_k b_k sin(w_k t) (K phi = w^2 M phi) with sum_k phi_k b_k w_k =
     -(A1, A2) W so that the velocities start at 0. Returns x1, x2 and the friction force
@@ -256,7 +256,7 @@ def test_from_rest_the_absorber_first_slips_where_the_stuck_closed_form_reaches_
     of |H| exceeds R by 2.9e-3 relative (the previous peak is below R) and H crosses R at |H'| =
     3.2e-2 N/s, so a state error of 3.5e-8 m (c2 x 3.5e-8 N in H) moves the time by ~1e-7 s: 1e-6 s
     (measured 3.0e-7 s). The old check (90 T < t < 110 T) was a number read off the engine's output."""
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     T = 2 * np.pi / p["Omega"]
     t_slip, t_peak = first_breakaway_from_rest(p, 130 * T)
@@ -286,9 +286,9 @@ def test_from_rest_the_absorber_first_slips_where_the_stuck_closed_form_reaches_
 def test_presets_are_the_papers_parameter_sets():
     # Section 3 and the captions of Figs. 3-7, 9, 11, 13 (the one place these numbers are written in tests).
     standard = dict(m1=1.0, m2=0.1, c1=1.0, c2=0.1, c3=10.0, R=0.5, F=0.01, Omega=0.854)
-    assert models.absorber().preset("standard") == standard
-    assert models.absorber().preset("fig3a") == dict(standard, R=0.60, F=0.45)
-    assert models.absorber().preset("fig3b") == dict(standard, R=0.45, F=0.60)
-    assert models.isolator().preset("standard") == dict(standard, c3=100.0, R=1.5)
-    assert models.isolator().preset("fig4a") == dict(standard, c3=0.25, R=0.60, F=0.45)
-    assert models.isolator().preset("fig4b") == dict(standard, c3=0.25, R=0.45, F=0.60)
+    assert hybrid_models.absorber().preset("standard") == standard
+    assert hybrid_models.absorber().preset("fig3a") == dict(standard, R=0.60, F=0.45)
+    assert hybrid_models.absorber().preset("fig3b") == dict(standard, R=0.45, F=0.60)
+    assert hybrid_models.isolator().preset("standard") == dict(standard, c3=100.0, R=1.5)
+    assert hybrid_models.isolator().preset("fig4a") == dict(standard, c3=0.25, R=0.60, F=0.45)
+    assert hybrid_models.isolator().preset("fig4b") == dict(standard, c3=0.25, R=0.45, F=0.60)

@@ -1,4 +1,4 @@
-"""Tests of the Karnopp reference model (models.karnopp)."""
+"""Tests of the Karnopp reference model (hybrid_models.karnopp)."""
 
 from __future__ import annotations
 
@@ -7,18 +7,18 @@ import math
 import numpy as np
 import pytest
 
-import models
-from models.karnopp import (
+import hybrid_models
+from hybrid_models.karnopp import (
     KarnoppResult,
     mechanical_energy,
     rhs,
     simulate_karnopp,
 )
-from models.linear import stick_response
+from hybrid_models.linear import stick_response
 
 # The paper's standard sets, from the model files' presets (checked against the paper in test_dampers.py).
-ABSORBER = models.absorber().preset("standard")
-ISOLATOR = models.isolator().preset("standard")
+ABSORBER = hybrid_models.absorber().preset("standard")
+ISOLATOR = hybrid_models.isolator().preset("standard")
 PARAMS = {"absorber": ABSORBER, "isolator": ISOLATOR}
 # Large initial displacements put the standard dampers into stick-slip despite F = 0.01 N.
 Y0_STICK_SLIP = {"absorber": [5.0, 0.0, 5.0, 0.0, 5.0], "isolator": [2.0, 0.0, 2.0, 0.0, 0.0]}

@@ -9,9 +9,9 @@ slipping). Measured (10 periods, 40 switches): error ~ nu^2 down to the solve_iv
 import numpy as np
 import pytest
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, simulate
-from models.karnopp import simulate_karnopp
+from hybrid_models.karnopp import simulate_karnopp
 
 CASES = {
     "absorber": [5.0, 0.0, 5.0, 0.0, 5.0],
@@ -21,7 +21,7 @@ CASES = {
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_karnopp_converges_to_the_event_driven_solution(name):
-    system = models.BUILTIN[name]()
+    system = hybrid_models.BUILTIN[name]()
     p = system.preset("standard")
     y0 = CASES[name]
     t_end = 10 * 2 * np.pi / p["Omega"]

@@ -1,9 +1,9 @@
-"""Shooting with a finite-difference monodromy on the Karnopp model (models.karnopp.shoot_karnopp).
+"""Shooting with a finite-difference monodromy on the Karnopp model (hybrid_models.karnopp.shoot_karnopp).
 
 References, all independent of the shooting code:
 
 * pure stick (R huge, the element never slips): the closed-form forced response of the linear
-  two-mass system (models.linear.stick_response, the paper's Appendix A), the multipliers
+  two-mass system (hybrid_models.linear.stick_response, the paper's Appendix A), the multipliers
   exp(+-i w_k T) of the undamped stick eigenfrequencies plus 1 (the free offset), and the
   monodromy expm(A T) of the stick equations written out below from the free-body diagrams;
 * stick-slip (the standard presets at Omega = 0.854 rad/s): the event-driven hybrid model on IDA
@@ -34,13 +34,16 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-import models
+import hybrid_models
 from hybrid import periodic_orbit
-from models.karnopp import KarnoppOrbit, shoot_karnopp, simulate_karnopp
-from models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies, stick_response
+from hybrid_models.karnopp import KarnoppOrbit, shoot_karnopp, simulate_karnopp
+from hybrid_models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies, stick_response
 
 NAMES = ("x1", "v1", "x2", "v2", "u")
-PARAMS = {"absorber": models.absorber().preset("standard"), "isolator": models.isolator().preset("standard")}
+PARAMS = {
+    "absorber": hybrid_models.absorber().preset("standard"),
+    "isolator": hybrid_models.isolator().preset("standard"),
+}
 
 
 def stick_matrix(model: str, p: dict[str, float]) -> np.ndarray:
@@ -120,7 +123,7 @@ def test_never_slipping_orbit_is_the_closed_form_stick_response(model, omega, t0
 @pytest.fixture(scope="module")
 def absorber_exact():
     """Event-driven absorber orbit at the standard parameters, section t0 = 0 (in slip-)."""
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     guess = dict(zip(NAMES, [-2.5716904, -1.789023, -9.5428116, -6.7533509, -9.5232955], strict=True))
     orbit = periodic_orbit(system, p, guess, "slip-", t0=0.0, transient_periods=0)
@@ -179,7 +182,7 @@ def test_absorber_stick_slip_section_in_stick(absorber_exact):
     i = int(np.argmin(np.abs(tr.t - t0)))
     t0 = float(tr.t[i])
     guess = {n: float(tr[n][i]) for n in NAMES}
-    exact = periodic_orbit(models.absorber(), p, guess, "stick", t0=t0, transient_periods=0)
+    exact = periodic_orbit(hybrid_models.absorber(), p, guess, "stick", t0=t0, transient_periods=0)
     assert exact.converged and exact.mode0 == "stick", exact.message
     orbit = shoot_karnopp("absorber", p, 0.9 * np.asarray(exact.x0[:5]), t0=t0)
     assert orbit.t0 == t0
@@ -198,7 +201,7 @@ def test_isolator_stick_slip():
     (1e-4 as check_against_exact; measured 2.7e-6). Until issue 7 this test started from a section and
     a state copied from the engine's own output.
     """
-    system = models.isolator()
+    system = hybrid_models.isolator()
     p = system.preset("standard")
     T = 2 * math.pi / p["Omega"]
     grazing = stick_response("isolator", p, [0.0])[0] * float(

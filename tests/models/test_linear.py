@@ -1,4 +1,4 @@
-"""Tests of the closed forms of Appendix A (models.linear)."""
+"""Tests of the closed forms of Appendix A (hybrid_models.linear)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-import models
-from models.linear import (
+import hybrid_models
+from hybrid_models.linear import (
     limit_amplitude,
     slip_eigenfrequencies,
     stick_amplitudes,
@@ -17,8 +17,8 @@ from models.linear import (
 )
 
 # The paper's standard sets, from the model files' presets (checked against the paper in test_dampers.py).
-ABSORBER = models.absorber().preset("standard")
-ISOLATOR = models.isolator().preset("standard")
+ABSORBER = hybrid_models.absorber().preset("standard")
+ISOLATOR = hybrid_models.isolator().preset("standard")
 PARAMS = {"absorber": ABSORBER, "isolator": ISOLATOR}
 
 

@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-import models
+import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit, simulate
 
-MODEL_DIR = Path(models.__file__).parent
+MODEL_DIR = Path(hybrid_models.__file__).parent
 TIGHT = SolverOptions(rtol=1e-10, atol=1e-12)
 FIGURES: dict[str, float] = {}
 
@@ -62,7 +62,7 @@ CASES = [
 
 @pytest.mark.parametrize(("hand_name", "net_name", "preset", "start"), CASES)
 def test_network_trajectory_equals_the_hand_written_model(hand_name, net_name, preset, start):
-    hand, net = models.BUILTIN[hand_name](), _net(net_name)
+    hand, net = hybrid_models.BUILTIN[hand_name](), _net(net_name)
     assert net.variable_names == hand.variable_names
     assert net.mode_names == hand.mode_names
     p = hand.preset(preset)
@@ -87,7 +87,7 @@ def test_network_trajectory_equals_the_hand_written_model(hand_name, net_name, p
 
 def test_network_friction_outputs_equal_the_hand_written_ones():
     """The element force and relative velocity of the absorber network are the paper's H and v_rel."""
-    hand, net = models.absorber(), _net("absorber_network")
+    hand, net = hybrid_models.absorber(), _net("absorber_network")
     p = hand.preset("fig3a")
     T = 2 * math.pi / p["Omega"]
     x0 = {n: 0.0 for n in hand.variable_names}
@@ -104,7 +104,7 @@ def test_network_friction_outputs_equal_the_hand_written_ones():
     [("absorber", "absorber_network", "fig3a"), ("isolator", "isolator_network", "fig4a")],
 )
 def test_network_periodic_orbit_equals_the_hand_written_one(hand_name, net_name, preset):
-    hand, net = models.BUILTIN[hand_name](), _net(net_name)
+    hand, net = hybrid_models.BUILTIN[hand_name](), _net(net_name)
     p = hand.preset(preset)
     a, b = periodic_orbit(hand, p), periodic_orbit(net, p)
     assert a.converged and b.converged

@@ -13,11 +13,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import models
+import hybrid_models
 from hybrid import HybridSystem, ModelError, load_system, system_from_dict
-from models.network import build, describe, read_network
+from hybrid_models.network import build, describe, read_network
 
-MODEL_DIR = Path(models.__file__).parent
+MODEL_DIR = Path(hybrid_models.__file__).parent
 NETWORKS = [
     "absorber_network",
     "isolator_network",

@@ -5,17 +5,17 @@ from importlib.metadata import entry_points
 import numpy as np
 import pytest
 
-import models
+import hybrid_models
 from hybrid._frc import default_range
 from hybrid._linear import natural_frequencies, reduced_jacobian
-from models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
-from models.overlays import STICK
+from hybrid_models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
+from hybrid_models.overlays import STICK
 
 
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
 def test_entry_point_gives_the_closed_forms(name):
     eps = {ep.name: ep for ep in entry_points(group="hybrid.frc_overlays")}
-    system = getattr(models, name)()
+    system = getattr(hybrid_models, name)()
     p = system.preset("standard")
     w = np.linspace(0.5, 1.5, 11)
     curves = eps[name].load()(p, w)
@@ -32,15 +32,17 @@ def test_entry_point_gives_the_closed_forms(name):
 
 def test_absorber_limit_in_x2_is_where_the_stuck_element_holds_R():
     # absorber, offset 0: H = c2 (x2 - x1) while stuck, so |H| = R at |x2| = R / (m2 W^2)
-    p = models.absorber().preset("standard")
+    p = hybrid_models.absorber().preset("standard")
     w = np.array([0.8, 0.9, 1.2])
-    (limit,) = (c for c in models.overlays.absorber(p, w) if c.startswith("structural"))
-    assert np.allclose(models.overlays.absorber(p, w)[limit]["x2"], p["R"] / (p["m2"] * w**2), rtol=1e-12)
+    (limit,) = (c for c in hybrid_models.overlays.absorber(p, w) if c.startswith("structural"))
+    assert np.allclose(
+        hybrid_models.overlays.absorber(p, w)[limit]["x2"], p["R"] / (p["m2"] * w**2), rtol=1e-12
+    )
 
 
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
 def test_natural_frequencies_of_the_stuck_dampers(name):
-    system = getattr(models, name)()
+    system = getattr(hybrid_models, name)()
     p = system.preset("standard")
     assert np.allclose(natural_frequencies(system, p), stick_eigenfrequencies(p), rtol=1e-12)
     lo, hi = default_range(system, p)
@@ -50,15 +52,15 @@ def test_natural_frequencies_of_the_stuck_dampers(name):
 
 def test_reduced_jacobian_eliminates_slave_variables():
     # absorber slipping: u is a slave variable; eliminating it gives the slip stiffness c2 c3 / (c2 + c3)
-    system = models.absorber()
+    system = hybrid_models.absorber()
     p = system.preset("standard")
     names, A = reduced_jacobian(system, p, "slip+")
     assert names == ("x1", "v1", "x2", "v2")
     w = natural_frequencies(system, p, "slip+")
-    assert np.allclose(w, models.linear.slip_eigenfrequencies("absorber", p), rtol=1e-12)
+    assert np.allclose(w, hybrid_models.linear.slip_eigenfrequencies("absorber", p), rtol=1e-12)
 
 
 def test_no_natural_frequency_no_default_range():
-    system = models.coulomb()
+    system = hybrid_models.coulomb()
     with pytest.raises(ValueError, match=r"no natural frequency .*--omega-range"):
         default_range(system, system.preset("forced"))
