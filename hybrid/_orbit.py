@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ._budget import BudgetExceeded
+from ._budget import BudgetExceeded, deadline_passed
 from ._compiled import CompiledSystem
 from ._expr import compile_scalar, diff
 from ._options import SolverOptions
@@ -113,6 +113,12 @@ class PeriodicOrbit:
         residual, if the model declares its energy names.
     nfev : int
         Residual evaluations of all runs of the Newton iteration.
+    route : str
+        How the orbit was found: ``"newton"`` (Newton's method from the guess, after its
+        transient), ``"continuation in <parameter> from <value>"`` (the cold-start fallback of
+        :func:`periodic_orbit`: Newton from the transient failed, a continuation in the forcing
+        parameter from that value reached the orbit, see :mod:`hybrid._coldstart`), or
+        ``"none"`` (not found).
     """
 
     system: HybridSystem
@@ -141,6 +147,7 @@ class PeriodicOrbit:
     message: str
     energy: dict = field(default_factory=dict)
     nfev: int = 0
+    route: str = "newton"
 
     @property
     def stable(self) -> bool | None:
@@ -187,6 +194,7 @@ class PeriodicOrbit:
             "iterations": self.iterations,
             "condition": self.condition,
             "energy": dict(self.energy),
+            "route": self.route,
             "message": self.message,
         }
 
@@ -638,7 +646,11 @@ def periodic_orbit(
         periods is run from the guess and the section is put in the middle of
         the longest mode interval of its last period.
     transient_periods : int
-        Forcing periods simulated from the guess before Newton's method.
+        Forcing periods simulated from the guess before Newton's method. If Newton's method
+        from the transient fails (``transient_periods > 0``), the orbit is sought by a route
+        that cannot wander: a continuation in the forcing parameter from a value where a cold
+        start converges, then a correction at exactly the requested value
+        (:mod:`hybrid._coldstart`); ``route`` says which route found it.
     options : SolverOptions, optional
         Tolerances (default :data:`ORBIT_OPTIONS`, rtol 1e-10).
     tol : float
@@ -653,7 +665,8 @@ def periodic_orbit(
     PeriodicOrbit
         ``converged`` is False (with the reason in ``message``) if Newton's
         method failed, e.g. when the response grows without bound (no bounded
-        periodic orbit) or a run failed.
+        periodic orbit) or a run failed, and the fallback did not find it either
+        (what it tried is in ``message``).
 
     Raises
     ------
@@ -676,7 +689,22 @@ def periodic_orbit(
         raise ValueError(f"`t0` must be finite, got {t0!r}")
     check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
     check_initial_state(shooter.cs, mode0, start, y)
-    return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+    orbit = solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+    if orbit.converged or transient_periods == 0 or deadline_passed():
+        return orbit
+    # Newton from the transient failed: a route that cannot wander (a layer above this module).
+    from ._coldstart import find_by_continuation
+
+    return find_by_continuation(
+        system,
+        params,
+        orbit,
+        options=options,
+        tol=tol,
+        max_iter=max_iter,
+        transient_periods=transient_periods,
+        samples_per_period=samples_per_period,
+    )
 
 
 def solve_orbit(
@@ -778,6 +806,7 @@ def _failed(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
         family=False,
         message=msg,
         nfev=shooter.nfev,
+        route="none",
     )
 
 
