@@ -7,7 +7,7 @@ converged orbit that is not unstable, at every Omega of the default frequency ra
 0.9-2.0 N), close to the peaks included? And by which route (``PeriodicOrbit.route``: Newton
 from the transient, or the fallback, see :mod:`hybrid._coldstart`)?
 
-Grid per damper: ``--n-r`` values of R evenly over its range (default 5) times 17 values of Omega:
+Grid per damper: ``--n-r`` values of R evenly over its range (default 5) times 21 values of Omega:
 both ends of the default range, the midpoint between the two natural frequencies ``w1``, ``w2``
 of the stuck system, and ``w (1 + d)`` for each ``w`` and ``d`` in ``OFFSETS`` (denser near the
 peaks, where the stick-slip bands lie and the multipliers reach 0.999 and more).
@@ -38,7 +38,7 @@ from hybrid.cli import resolve_model
 
 R_RANGES = {"absorber": (0.3, 0.8), "isolator": (0.9, 2.0)}
 #: Relative offsets from each natural frequency of the stuck system.
-OFFSETS = (-3e-3, -5e-4, -1e-4, -3e-5, 3e-5, 1e-4, 1e-3)
+OFFSETS = (-3e-3, -2e-3, -1e-3, -5e-4, -1e-4, -3e-5, 3e-5, 1e-4, 1e-3)
 
 
 def omega_grid(system, params) -> np.ndarray:

@@ -22,7 +22,11 @@ requested value, then a correction at exactly that value.
 Nothing here knows the model: the forcing parameter comes from the period's expression, the
 anchors from the initial mode's linearisation. The effort is bounded: at most
 :data:`MAX_POINTS` orbits per branch, :data:`FALLBACK_SECONDS` of wall-clock time in all (and
-any :func:`hybrid.time_limit` of the caller), every run within its own budget.
+any :func:`hybrid.time_limit` of the caller), every run within its own budget; a branch is given
+up after :data:`MAX_FAILURES` failed steps in a row or when it grows :data:`MAX_GROWTH` times
+larger than its first orbit. No fallback is tried for a model without a forcing parameter or
+without a natural frequency of its initial mode; a fallback that fails returns Newton's result
+with what it tried added to the message.
 """
 
 from __future__ import annotations
@@ -41,11 +45,15 @@ from ._system import HybridSystem
 __all__ = ["find_by_continuation", "anchors", "FRACTIONS", "MAX_POINTS", "FALLBACK_SECONDS"]
 
 #: Starts tried on each side, as fractions of the way from the requested value to the anchor.
-FRACTIONS = (0.02, 0.1, 0.35, 1.0)
+FRACTIONS = (0.005, 0.02, 0.1, 0.35, 1.0)
 #: Orbits computed at most on one branch of the fallback.
-MAX_POINTS = 400
+MAX_POINTS = 100
 #: Wall-clock limit of the whole fallback [s] (a caller's earlier time_limit wins).
-FALLBACK_SECONDS = 600.0
+FALLBACK_SECONDS = 120.0
+#: A fallback branch whose state grows by this factor over its first orbit's is declared unbounded.
+MAX_GROWTH = 1e2
+#: Failed corrector steps in a row before a fallback branch is given up.
+MAX_FAILURES = 4
 #: Samples per period of the branch's orbits (only the final orbit keeps the caller's count).
 BRANCH_SAMPLES = 16
 
@@ -136,6 +144,8 @@ def find_by_continuation(
     p = float(system.parameter_values(params)[par])
     settings = ContinuationOptions(
         locate=False,
+        max_growth=MAX_GROWTH,
+        max_failures=MAX_FAILURES,
         max_points=MAX_POINTS,
         tol=tol,
         transient_periods=transient_periods,
