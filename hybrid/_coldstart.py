@@ -138,9 +138,18 @@ def find_by_continuation(
     """
     try:
         par = forcing_parameter(system)
-        marks = anchors(system, params)
     except ValueError as exc:
-        return _give_up(failed, [f"no fallback: {exc}"])
+        return _give_up(failed, [f"none possible: {exc}"])
+    try:
+        marks = anchors(system, params)
+    except ValueError:
+        return _give_up(
+            failed,
+            [
+                "none possible: the initial mode linearised at the zero state has no natural frequency to "
+                "place starts by (continue from a value of your own: hybrid.continuation, hybrid frc)"
+            ],
+        )
     p = float(system.parameter_values(params)[par])
     settings = ContinuationOptions(
         locate=False,
@@ -156,7 +165,7 @@ def find_by_continuation(
         skip = set()  # anchors whose side has been given up
         for start, anchor in _starts(p, marks):
             if deadline_passed():
-                tried.append("time limit reached")
+                tried.append(f"time limit reached (the fallback's {FALLBACK_SECONDS:g} s, or the caller's)")
                 break
             if anchor in skip or start == p:
                 continue
