@@ -24,13 +24,15 @@ anchors from the initial mode's linearisation. The effort is bounded: at most
 :data:`MAX_POINTS` orbits per branch, :data:`FALLBACK_SECONDS` of wall-clock time in all (and
 any :func:`hybrid.time_limit` of the caller), every run within its own budget; a branch is given
 up after :data:`MAX_FAILURES` failed steps in a row or when it grows :data:`MAX_GROWTH` times
-larger than its first orbit. No fallback is tried for a model without a forcing parameter or
-without a natural frequency of its initial mode; a fallback that fails returns Newton's result
-with what it tried added to the message.
+larger than its first orbit. No fallback is tried when no Newton iteration failed (the transient
+or a run failed: its budget, a grazing switch; the residual is not finite), nor for a model
+without a forcing parameter or without a natural frequency of its initial mode; a fallback that
+fails returns Newton's result with what it tried added to the message.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import replace
 
@@ -133,9 +135,14 @@ def find_by_continuation(
     Returns
     -------
     PeriodicOrbit
-        Converged, with ``route`` ``"continuation in <parameter> from <start>"``; or ``failed``
+        ``failed`` itself if its residual is not finite (no Newton iteration failed: the transient
+        or a run failed, e.g. its budget, which every start would meet as well). Else converged, with ``route`` ``"continuation in <parameter> from <start>"``; or ``failed``
         with the fallback's attempts in its message.
     """
+    if not math.isfinite(failed.residual):
+        # no Newton iteration failed: the transient or a run failed (a budget, a grazing switch):
+        # every start's cold start would meet the same
+        return failed
     try:
         par = forcing_parameter(system)
     except ValueError as exc:
