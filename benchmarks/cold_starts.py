@@ -17,8 +17,18 @@ outside the stick-slip bands is a neutral family member). Printed per damper: ho
 found, by which route, the failures with their reasons, the largest Floquet multiplier modulus
 met, and wall times (median, largest; the machine's load is printed, other jobs may run).
 
+Second part (``--edges``): the hardest places, where the multipliers reach 0.999 and more (the
+steep edges of the stick-slip bands). For R at the ends and the middle of each range and each
+natural frequency ``w``, a continuation over ``w (1 -+ 6e-3)`` gives the branch; at up to
+``--edge-points`` of its stable orbits with the largest multiplier moduli (0.999 and more) a cold
+start is made at the same Omega and compared with the branch's orbit (an independent route): the
+largest difference of the state, carried to the branch orbit's section by a tight run (rtol
+1e-12), relative to the largest component. Counted as found: converged, stable, and within
+``max(1e-6, 10 cond(I - M) rtol)`` of the branch's orbit (the accuracy both carry).
+
 Run: ``python benchmarks/cold_starts.py`` (``--dampers isolator``, ``--n-r 3``, ``--max-time S``
-per cold start; ``--csv FILE`` writes one row per cold start).
+per cold start; ``--csv FILE`` writes one row per cold start; ``--edges`` adds the second part,
+``--edges-only`` runs it alone).
 """
 
 from __future__ import annotations
@@ -67,7 +77,83 @@ def cold_start(system, params, max_time: float) -> dict:
         "switches": o.transitions_per_period,
         "wall_s": wall,
         "message": o.message,
+        "orbit": o,
     }
+
+
+TIGHT = hybrid.SolverOptions(rtol=1e-12, atol=1e-14)
+
+
+def state_at(orbit, t: float) -> np.ndarray:
+    """The orbit's state at time ``t`` (modulo the period), by a tight run from its section."""
+    dt = (t - orbit.t0) % orbit.period
+    if dt < 1e-12 * orbit.period:
+        return orbit.x0.copy()
+    tr = hybrid.simulate(
+        orbit.system, orbit.params, (orbit.t0, orbit.t0 + dt), orbit.x0, orbit.mode0, options=TIGHT
+    )
+    return tr.y_final.copy()
+
+
+def difference(orbit, ref) -> float:
+    keep = [i for i, n in enumerate(ref.system.variable_names) if n not in ref.system.quadratures]
+    x = state_at(orbit, ref.t0)[keep]
+    return float(np.max(np.abs(x - ref.x0[keep])) / np.max(np.abs(ref.x0[keep])))
+
+
+def edges(name: str, n_points: int, max_time: float) -> None:
+    system = resolve_model(name)
+    base = system.preset("standard")
+    lo, hi = R_RANGES[name]
+    out = []
+    t_cont = 0.0
+    for R in (lo, 0.5 * (lo + hi), hi):
+        params = {**base, "R": float(R)}
+        for w in natural_frequencies(system, params):
+            t = time.perf_counter()
+            br = hybrid.continuation(
+                system,
+                params,
+                "Omega",
+                (w * (1 - 6e-3), w * (1 + 6e-3)),
+                settings=hybrid.ContinuationOptions(locate=False),
+            )
+            t_cont += time.perf_counter() - t
+            mu = [
+                float(np.max(np.abs(o.floquet_multipliers))) if o.stability == "stable" else 0.0
+                for o in br.points
+            ]
+            order = [k for k in np.argsort(mu)[::-1] if mu[k] >= 0.999][:n_points]
+            if not order:
+                print(f"{name} R={R:.4g} w={w:.6f}: no stable orbit with |mu| >= 0.999 on the branch ({br})")
+            for k in order:
+                ref = br.points[k]
+                om = ref.params["Omega"]
+                row = cold_start(system, {**params, "Omega": om}, max_time)
+                o = row.pop("orbit")
+                diff = difference(o, ref) if o.converged else float("nan")
+                bound = max(1e-6, 10 * max(o.condition, ref.condition) * hybrid.ORBIT_OPTIONS.rtol)
+                row["found"] = row["found"] and o.stability == "stable" and diff <= bound
+                out.append(row)
+                print(
+                    f"{name} R={R:.4g} Omega={om:.9f} (branch |mu| {mu[k]:.7f}): "
+                    f"{'found' if row['found'] else 'NOT FOUND'} ({row['stability']}, |mu| "
+                    f"{row['max_multiplier']:.7f}) by {row['route']!r} in {row['wall_s']:.2f} s; "
+                    f"state vs the branch's orbit {diff:.2g} (bound {bound:.2g})",
+                    flush=True,
+                )
+                if not row["found"]:
+                    print(f"    {row['message']}", flush=True)
+    found = [r for r in out if r["found"]]
+    print(f"\n== {name}, band edges: {len(found)} of {len(out)} cold starts found the branch's orbit")
+    kinds: dict[str, list] = {}
+    for r in found:
+        kinds.setdefault(route_kind(r["route"]), []).append(r["wall_s"])
+    for k, w in sorted(kinds.items()):
+        print(f"   by {k}: {len(w)} (wall median {statistics.median(w):.2f} s, max {max(w):.2f} s)")
+    if out:
+        print(f"   largest multiplier modulus of these orbits: {max(r['max_multiplier'] for r in out):.7f}")
+    print(f"   continuations (references): {t_cont:.1f} s\n")
 
 
 def route_kind(route: str) -> str:
@@ -80,10 +166,13 @@ def main() -> None:
     ap.add_argument("--n-r", type=int, default=5)
     ap.add_argument("--max-time", type=float, default=300.0)
     ap.add_argument("--csv", default=None)
+    ap.add_argument("--edges", action="store_true")
+    ap.add_argument("--edges-only", action="store_true")
+    ap.add_argument("--edge-points", type=int, default=3)
     args = ap.parse_args()
     print(f"load average: {os.getloadavg()}, cpus: {os.cpu_count()}")
     rows = []
-    for name in args.dampers:
+    for name in [] if args.edges_only else args.dampers:
         system = resolve_model(name)
         base = system.preset("standard")
         out = []
@@ -91,6 +180,7 @@ def main() -> None:
             params = {**base, "R": float(R)}
             for om in omega_grid(system, params):
                 row = cold_start(system, {**params, "Omega": float(om)}, args.max_time)
+                row.pop("orbit")
                 row["model"] = name
                 out.append(row)
                 flag = "found" if row["found"] else "NOT FOUND"
@@ -119,7 +209,11 @@ def main() -> None:
         if mu:
             print(f"   largest Floquet multiplier modulus among the stable orbits found: {max(mu):.7f}")
         print(f"   wall per cold start: median {statistics.median(walls):.2f} s, max {max(walls):.2f} s\n")
-    if args.csv:
+    if args.edges or args.edges_only:
+        for name in args.dampers:
+            edges(name, args.edge_points, args.max_time)
+    print(f"load average: {os.getloadavg()}")
+    if args.csv and rows:
         with open(args.csv, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
             w.writeheader()
