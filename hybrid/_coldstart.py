@@ -213,6 +213,8 @@ def find_by_continuation(
                         f"continuation in {par} from {start:.8g} ({len(branch.points)} orbits), corrected "
                         f"at {par}={p:.8g} from the branch's orbit at {o.params[par]:.8g}"
                     )
+                    if tried:
+                        note += f" (after {len(tried)} other attempt(s): " + "; ".join(tried) + ")"
                     return replace(
                         orbit,
                         route=f"continuation in {par} from {start:.8g}",
