@@ -90,6 +90,12 @@ class PeriodicOrbit:
         residual, if the model declares its energy names.
     nfev : int
         Residual evaluations of all runs of the Newton iteration.
+    route : str
+        How the orbit was found: ``"newton"`` (Newton's method from the guess, after its
+        transient), ``"continuation in <parameter> from <value>"`` (the cold-start fallback of
+        :func:`hybrid.periodic_orbit`: Newton from the transient failed, a continuation in the
+        forcing parameter from that value reached the orbit, see :mod:`hybrid._coldstart`), or
+        ``"none"`` (not found).
     """
 
     system: HybridSystem
@@ -117,6 +123,7 @@ class PeriodicOrbit:
     message: str
     energy: dict = field(default_factory=dict)
     nfev: int = 0
+    route: str = "newton"
 
     @property
     def stable(self) -> bool | None:
@@ -162,6 +169,7 @@ class PeriodicOrbit:
             "iterations": self.iterations,
             "condition": self.condition,
             "energy": dict(self.energy),
+            "route": self.route,
             "message": self.message,
         }
 
@@ -423,6 +431,7 @@ def _failed(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
         family=False,
         message=msg,
         nfev=shooter.nfev,
+        route="none",
     )
 
 

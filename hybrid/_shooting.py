@@ -31,7 +31,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ._budget import BudgetExceeded
+from ._budget import BudgetExceeded, deadline_passed
 from ._compiled import CompiledSystem
 from ._expr import compile_scalar, diff
 from ._options import SolverOptions
@@ -299,7 +299,11 @@ def periodic_orbit(
         periods is run from the guess and the section is put in the middle of
         the longest mode interval of its last period.
     transient_periods : int
-        Forcing periods simulated from the guess before Newton's method.
+        Forcing periods simulated from the guess before Newton's method. If Newton's method
+        from the transient fails (``transient_periods > 0``), the orbit is sought by a route
+        that cannot wander: a continuation in the forcing parameter from a value where a cold
+        start converges, then a correction at exactly the requested value
+        (:mod:`hybrid._coldstart`); ``route`` says which route found it.
     options : SolverOptions, optional
         Tolerances (default :data:`ORBIT_OPTIONS`, rtol 1e-10).
     tol : float
@@ -314,7 +318,8 @@ def periodic_orbit(
     PeriodicOrbit
         ``converged`` is False (with the reason in ``message``) if Newton's
         method failed, e.g. when the response grows without bound (no bounded
-        periodic orbit) or a run failed.
+        periodic orbit) or a run failed, and the fallback did not find it either
+        (what it tried is in ``message``).
 
     Raises
     ------
@@ -337,7 +342,22 @@ def periodic_orbit(
         raise ValueError(f"`t0` must be finite, got {t0!r}")
     check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
     check_initial_state(shooter.cs, mode0, start, y)
-    return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+    orbit = solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+    if orbit.converged or transient_periods == 0 or deadline_passed():
+        return orbit
+    # Newton from the transient failed: a route that cannot wander (a layer above this module).
+    from ._coldstart import find_by_continuation
+
+    return find_by_continuation(
+        system,
+        params,
+        orbit,
+        options=options,
+        tol=tol,
+        max_iter=max_iter,
+        transient_periods=transient_periods,
+        samples_per_period=samples_per_period,
+    )
 
 
 def solve_orbit(

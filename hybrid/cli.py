@@ -255,7 +255,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_nonnegative_int,
         default=10,
         metavar="N",
-        help="forcing periods simulated from the guess before Newton's method (default 10)",
+        help="forcing periods simulated from the guess before Newton's method (default 10); if Newton "
+        "fails from there, the orbit is sought by continuation in the forcing frequency (0: no fallback)",
     )
     _add_tolerances(p)
     p.add_argument(
@@ -523,6 +524,8 @@ def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
         f"  converged: residual {orbit.residual:.2g} after {orbit.iterations} Newton iterations, "
         f"cond(I - M) = {orbit.condition:.3g}"
     )
+    route = {"newton": "Newton's method from the guess (after its transient)"}.get(orbit.route, orbit.route)
+    lines.append(f"  found by: {route}")
     fl = np.abs(orbit.floquet_multipliers)
     verdict = {
         "stable": "stable (all Floquet multipliers inside the unit circle)",

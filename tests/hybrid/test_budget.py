@@ -407,15 +407,10 @@ def test_orbit_at_an_undamped_resonance_says_no_bounded_orbit_and_what_to_try():
     assert not o.converged
     assert o.message.startswith("no bounded periodic orbit near the guess: a Floquet multiplier is 1")
     assert "--transient" in o.message and "--x0" in o.message
-
-
-def test_newton_failure_names_what_to_try():
-    # the exact stick resonance: an orbit exists (found with --transient 1000), Newton from the
-    # 10-period transient fails; the message says what to try
-    system = hybrid_models.absorber()
-    o = periodic_orbit(system, system.preset("standard", Omega=0.8543090), max_iter=5)
-    assert not o.converged
-    assert "an orbit may still exist: try a longer transient (transient_periods; CLI --transient" in o.message
+    # the cold-start fallback tried both sides: each branch grows without bound towards Omega
+    assert o.route == "none"
+    tried = o.message.split("fallback (continuation in the forcing parameter): ")[1]
+    assert tried.count("the response grows without bound") == 2
 
 
 def test_switches_decided_within_the_noise_of_the_guards_are_named():
