@@ -62,8 +62,8 @@ class Branch:
         Why a stopped branch stopped: ``"unbounded"`` (the response grows without bound),
         ``"stalled"`` (the corrector failed ``max_failures`` times in a row), ``"no-start"``
         (no first orbit), ``"degenerate"`` (``I - M`` vanishes at the first orbit: every nearby
-        state is periodic, e.g. an unforced system at rest, so there is no branch to follow), ``"budget"`` (a run's budget or the deadline), ``"interrupted"``;
-        ``""`` if completed.
+        state is periodic, e.g. an unforced system at rest, so there is no branch to follow),
+        ``"budget"`` (a run's budget or the deadline), ``"interrupted"``; ``""`` if completed.
     """
 
     system: HybridSystem
