@@ -174,7 +174,10 @@ class ContinuationOptions:
     transient_periods : int
         Periods simulated from the guess before the first orbit.
     samples_per_period : int
-        Samples of each stored orbit's trajectory.
+        Samples of each stored orbit's trajectory. The amplitudes are located on the quintic
+        interpolant of the samples (its error is ``O((T/n)^6)``): with the default 64 they agree with
+        those from 2048 samples to 2e-11 relative along the dampers' bands (256: 1.5e-14), at a
+        quarter of the sampling cost.
     """
 
     ds: float = 0.02
@@ -191,7 +194,7 @@ class ContinuationOptions:
     max_growth: float = 1e6
     max_failures: int = 12
     transient_periods: int = 10
-    samples_per_period: int = 256
+    samples_per_period: int = 64
 
     def __post_init__(self):
         for name in ("ds", "ds_min", "ds_max", "tol", "step_tol", "locate_tol", "max_growth", "max_angle"):
