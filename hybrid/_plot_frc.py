@@ -81,12 +81,14 @@ def zoom_windows(fr: FrequencyResponse) -> list[tuple[float, float, float]]:
     return out
 
 
-def _runs(stab: list[str]) -> list[tuple[int, int, str]]:
+def _runs(stab: list[str], unknown: frozenset = frozenset()) -> list[tuple[int, int, str]]:
     """Maximal runs ``[i, j]`` (inclusive) of equal stability, each extended to the next run's first point.
 
     The segment between two runs is drawn in the style of the earlier one: a
     located onset (e.g. of slip) is the first point of the new regime, so the
-    segment up to it still belongs to the old one.
+    segment up to it still belongs to the old one. Not across a segment in
+    ``unknown`` (``j`` with a special point only bracketed between points ``j``
+    and ``j + 1``): what lies there was not computed.
     """
     out = []
     i = 0
@@ -95,9 +97,14 @@ def _runs(stab: list[str]) -> list[tuple[int, int, str]]:
         j = i
         while j + 1 < n and stab[j + 1] == stab[i]:
             j += 1
-        out.append((i, min(j + 1, n - 1), stab[i]))
+        out.append((i, j if j in unknown else min(j + 1, n - 1), stab[i]))
         i = j + 1
     return out
+
+
+def _unknown_segments(b) -> frozenset:
+    """Segments ``(j, j + 1)`` of a branch that hold a special point it only bracketed."""
+    return frozenset(sp.index - 1 for sp in b.special if sp.status == "bracketed" and sp.index > 0)
 
 
 def _draw_branches(ax, fr: FrequencyResponse, name: str, window=None) -> list[float]:
@@ -113,10 +120,14 @@ def _draw_branches(ax, fr: FrequencyResponse, name: str, window=None) -> list[fl
                 continue
             p, amp = b.p, b.amplitude(name)
             amp = np.where((p >= a) & (p <= b_), amp, np.nan)
-            for i, j, s in _runs(b.stability):
+            unknown = _unknown_segments(b)
+            for i, j, s in _runs(b.stability, unknown):
                 st = STYLE.get(s)
                 if st is not None:
                     ax.plot(p[i : j + 1], amp[i : j + 1], zorder=3, **st)
+            for j in unknown:  # a bracketed change between two points: not computed in between
+                if j + 1 < p.size:
+                    ax.plot(p[j : j + 2], amp[j : j + 2], color="0.6", lw=0.8, ls=":", zorder=2)
             if window is not None:
                 m = (p >= window[0]) & (p <= window[1]) & np.isfinite(amp)
                 inside += list(amp[m])
@@ -132,6 +143,10 @@ def _draw_special(ax, fr: FrequencyResponse, name: str, window=None, label: bool
             if name not in sp.amplitude:
                 continue
             x, y = sp.parameter, sp.amplitude[name]
+            if sp.status == "bracketed":
+                # at the orbit reported for it (on the curve), with the bracket as a bar
+                x = b.points[sp.index].params[fr.parameter]
+                ax.plot(list(sp.interval), [y, y], color="k", lw=1.2, zorder=5)
             if window is not None and not (window[0] <= x <= window[1]):
                 continue
             filled = sp.kind != "mode-lost"
