@@ -260,8 +260,20 @@ class SensitivitySolver:
         ix = np.ix_(self.s, self.s)
         mask = mode.is_diff[self.s].astype(float)
         self._mask = mask
-        const = not any(i in set(self.s.tolist()) and j in set(self.s.tolist()) for i, j, _ in mode.jac_terms)
-        self._J_const = mode.jac_base[ix].copy() if const else None
+        where = {int(i): k for k, i in enumerate(self.s.tolist())}
+        # Entries of dF/dy inside the s x s block that vary (the rest is the constant jac_base):
+        # their position in the term list of the mode's generated Jacobian function, and in the block.
+        varying = [
+            (k, where[i], where[j]) for k, (i, j, _) in enumerate(mode.jac_terms) if i in where and j in where
+        ]
+        self._J_const = mode.jac_base[ix].copy() if not varying else None
+        base = mode.jac_base[ix].copy()
+        sel = np.array([k for k, _, _ in varying], dtype=int)
+        at = (
+            np.array([a for _, a, _ in varying], dtype=int),
+            np.array([b for _, _, b in varying], dtype=int),
+        )
+        jac_fn = mode._jac_fn
         self._ix = ix
         mcol = mask[:, None]
         N = n + ns * ns
@@ -270,7 +282,9 @@ class SensitivitySolver:
         def J_ss(t, y):
             if self._J_const is not None:
                 return self._J_const
-            return mode.dFdy(t, y)[ix]
+            J = base.copy()
+            J[at] = np.asarray(jac_fn([t, *y.tolist()]), dtype=float)[sel]
+            return J
 
         self.J_ss = J_ss
 
