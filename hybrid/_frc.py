@@ -266,37 +266,33 @@ def frequency_response(
         if deadline_passed():
             out.timed_out, piece.gaps = True, [(a, b)]
             continue
-        # A start that fails at the end of the range (e.g. a degenerate orbit there) is retried
-        # a little inside it; what lies before is a gap.
-        for start in [a] + [a + f * (b - a) for f in NO_START_RETRY]:
-            up = continuation(
+
+        def run(start: float, end: float, covered: float, piece=piece) -> Branch:
+            """A branch from ``start`` towards ``end`` (``covered``: range done before it, for progress)."""
+            br = continuation(
                 system,
                 params,
                 parameter,
-                (start, b),
-                progress=report(done + (start - a), b - start),
+                (start, end),
+                progress=report(covered, abs(end - start)),
                 on_point=sink(),
                 **continuation_options,
             )
-            piece.branches.append(up)
+            piece.branches.append(br)
+            out.timed_out = out.timed_out or (br.status == "stopped" and deadline_passed())
+            return br
+
+        # A start that fails at the end of the range (e.g. a degenerate orbit there) is retried
+        # a little inside it; what lies before is a gap.
+        for start in [a] + [a + f * (b - a) for f in NO_START_RETRY]:
+            up = run(start, b, done + (start - a))
             if up.reason != "no-start" or deadline_passed():
                 break
-        out.timed_out = out.timed_out or (up.status == "stopped" and deadline_passed())
         reach = float(np.max(up.p)) if up.points else a
         if reach < b and deadline_passed():
             out.timed_out = True
         elif reach < b:
-            down = continuation(
-                system,
-                params,
-                parameter,
-                (b, reach),
-                progress=report(done + (reach - a), b - reach),
-                on_point=sink(),
-                **continuation_options,
-            )
-            piece.branches.append(down)
-            out.timed_out = out.timed_out or (down.status == "stopped" and deadline_passed())
+            run(b, reach, done + (reach - a))
         piece.gaps = _uncovered(
             a, b, [(float(np.min(br.p)), float(np.max(br.p))) for br in piece.branches if br.points]
         )

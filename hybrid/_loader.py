@@ -125,6 +125,20 @@ def load_system(path: str | Path) -> HybridSystem:
         raise ModelError(f"{path.name}: {exc}") from None
 
 
+def _with_format(path: str | Path, method: str, *args):
+    """``(True, result)`` of the file's format's ``method(data, *args)``; ``(False, None)`` if its
+    format (the mode-level one, or one without that method) has none. Errors name the file."""
+    path = Path(path)
+    data = read_model_file(path)
+    try:
+        fmt = _format(data)
+        if fmt is None or not hasattr(fmt, method):
+            return False, None
+        return True, getattr(fmt, method)(data, *args)
+    except ModelError as exc:
+        raise ModelError(f"{path.name}: {exc}") from None
+
+
 def describe_model_file(path: str | Path) -> str | None:
     """The description its format gives of a model file (None for mode-level files).
 
@@ -133,15 +147,8 @@ def describe_model_file(path: str | Path) -> str | None:
     ModelError
         As :func:`load_system`.
     """
-    path = Path(path)
-    data = read_model_file(path)
-    try:
-        fmt = _format(data)
-        if fmt is None or not hasattr(fmt, "describe"):
-            return None
-        return str(fmt.describe(data))
-    except ModelError as exc:
-        raise ModelError(f"{path.name}: {exc}") from None
+    found, text = _with_format(path, "describe")
+    return str(text) if found else None
 
 
 def draw_model_file(path: str | Path, out: str | Path) -> bool:
@@ -152,16 +159,8 @@ def draw_model_file(path: str | Path, out: str | Path) -> bool:
     ModelError
         As :func:`load_system`.
     """
-    path = Path(path)
-    data = read_model_file(path)
-    try:
-        fmt = _format(data)
-        if fmt is None or not hasattr(fmt, "draw"):
-            return False
-        fmt.draw(data, out)
-        return True
-    except ModelError as exc:
-        raise ModelError(f"{path.name}: {exc}") from None
+    found, _ = _with_format(path, "draw", out)
+    return found
 
 
 def read_model_file(path: str | Path) -> dict:

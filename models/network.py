@@ -67,6 +67,7 @@ from dataclasses import dataclass, field
 
 from hybrid import ExpressionError, ModelError
 from hybrid._expr import parse
+from hybrid._loader import _key, _short  # how a file's values are quoted in messages: one place
 
 __all__ = [
     "GROUND",
@@ -209,17 +210,6 @@ class Network:
             for p in (e.a, e.b)
         }
         return {u: f"vel_{u}" for u in self.nodes if u in coupled}
-
-
-def _short(value: object, width: int = 60) -> str:
-    text = repr(value)
-    return text if len(text) <= width else text[: width - 3] + "..."
-
-
-def _key(name: object) -> str:
-    if isinstance(name, str) and name.isprintable() and len(name) <= 64:
-        return name
-    return _short(name, 40)
 
 
 def _table(data: Mapping, key: str) -> Mapping:
