@@ -209,17 +209,32 @@ class _Continuer:
     def scale_of(self, pt: _Point, d: np.ndarray) -> float:
         return _scale(pt.y, d)
 
-    def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False):
-        """Rows of the (scaled) Newton system; adds the gauge on a family."""
-        sv = np.linalg.svd(Jy, compute_uv=False)
+    def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False, ref=None):
+        """Rows of the (scaled) Newton system, and on a family of orbits (a neutral multiplier 1) a
+        row that picks the member: the model's gauge, or without one the family's own direction
+        (the null vector of ``I - M``) held at its value at ``ref`` (the last point: the member
+        nearest it, so that the branch does not wander along the family). A fold, where ``I - M``
+        is singular too but ``[I - M, dP/dp]`` is not, gets no such row.
+
+        Returns ``(A, rhs, family, gauge value or None)``.
+        """
+        _, sv, vt = np.linalg.svd(Jy)
         family = force_gauge or is_family(sv)
         A = np.hstack([Jy, Jp[:, None]])
         rhs = -r
         g = self.sh.gauge(y)
+        gval = None
         if family and g is not None:
-            A = np.vstack([A, np.concatenate([g[1][d], [0.0]])])
-            rhs = np.concatenate([rhs, [-g[0]]])
-        return A, rhs, family
+            row, gval = g[1][d], g[0]
+        elif family and is_family(np.linalg.svd(A, compute_uv=False)):
+            # a family: [I - M, dP/dp] is rank-deficient too (at a fold only I - M is, and the
+            # branch moves along that null vector: nothing may hold it there)
+            row = vt[-1]
+            gval = float(row @ (y[d] - (y if ref is None else ref)[d]))
+        if gval is not None:
+            A = np.vstack([A, np.concatenate([row, [0.0]])])
+            rhs = np.concatenate([rhs, [-gval]])
+        return A, rhs, family, gval
 
     def correct(
         self, pt: _Point, ds: float, samples: int, force_gauge: bool = False, light: bool = False
@@ -271,10 +286,9 @@ class _Continuer:
                 y[d] += lam * prev[3][:-1]
                 p = float(prev[1] + lam * prev[3][-1])
                 continue
-            g = self.sh.gauge(y)
             Jy, Jp, M = self.jacobian(tr, y, p, pt.mode, pt.phi, nw)
-            A, rhs, family = self.system_matrix(y, Jy, Jp, r, d, force_gauge)
-            gauge_ok = not family or g is None or abs(g[0]) <= self.tol * scale
+            A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
+            gauge_ok = gval is None or abs(gval) <= self.tol * scale
             X = np.concatenate([y[d], [p]])
             Ab = np.vstack([A, tau / D])
             rhs = np.concatenate([rhs, [-(tau @ ((X - Xp) / D))]])
@@ -348,7 +362,7 @@ class _Continuer:
         tr = self.sh.run(y, pt.mode, t0)
         r = nw.residual(tr, y)
         Jy, Jp, _ = self.jacobian(tr, y, pt.p, pt.mode, pt.phi, nw)
-        A, _, _ = self.system_matrix(y, Jy, Jp, r, d)
+        A, _, _, _ = self.system_matrix(y, Jy, Jp, r, d)
         D = np.concatenate([np.full(d.size, self.scale_of(pt, d)), [self.sp]])
         return self.null_vector(A, D, prev, direction)
 

@@ -497,7 +497,8 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
         msg += "a family of periodic orbits (neutral multiplier 1); " + (
             "the member with gauge `" + str(sys_.orbit.get("gauge")) + "` = 0 is returned; "
             if g is not None
-            else "the member nearest the guess is returned; "
+            else "the member nearest the guess is returned (the model declares no `[orbit] gauge`: an expression "
+            "of the state that is 0 on the member wanted, e.g. a stuck element's offset, picks one; see README); "
         )
     err = cond * shooter.options.rtol
     if sv.size and sv[0] == 0.0:

@@ -805,6 +805,15 @@ def cmd_frc(args) -> int:
         _info(f"wrote {f}")
     n = sum(len(b.points) for b in fr.branches)
     _info(f"{n} periodic orbits in {wall:.1f} s")
+    family = sum(1 for b in fr.branches for o in b.points if o.family)
+    if family and system._cache.get("gauge") is None:
+        _info(
+            f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
+            "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "
+            "from a transient), which may be off-centre, e.g. touching a guard on one side only (slip setting "
+            "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
+            "element's offset) picks the member (README, docs/models.md)"
+        )
     if not fr.complete:
         for m in fr.messages():
             _info(f"hybrid: {m}")
