@@ -30,7 +30,7 @@ import numpy as np
 from ._budget import BudgetExceeded
 from ._expr import free_symbols
 from ._options import ContinuationOptions, SolverOptions
-from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _finish, check_samples, is_family
+from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _finish, check_samples, is_family, mode_fractions
 from ._shooting import Shooter, _choose_section_period, _Newton, _scale, solve_orbit
 from ._simulate import check_time_range, initial_state
 from ._special import SpecialPoint, detect, locate
@@ -153,10 +153,7 @@ class _Summary:
 
     def __init__(self, tr, period: float):
         self.trajectory = tr
-        fr: dict[str, float] = {}
-        for a, b, m in tr.mode_intervals():
-            fr[m] = fr.get(m, 0.0) + (b - a) / period
-        self.mode_fractions = fr
+        self.mode_fractions = mode_fractions(tr, period)
 
 
 class _Point:
@@ -199,8 +196,6 @@ class _Continuer:
         self.settings = settings
         self.tol = settings.tol
         self.sh = Shooter(system, params, options, free=parameter)
-        # Relative accuracy of one run of the map (the exact integrator's is rounding).
-        self.noise_rtol = options.rtol if options.integrator != "exact" else 1e-15
 
     def at(self, p: float) -> None:
         self.sh.set_params({**self.base, self.parameter: p})
@@ -297,7 +292,7 @@ class _Continuer:
             # (integration error amplified by the conditioning of the bordered system).
             sv = np.linalg.svd(Ab * D[None, :], compute_uv=False)
             kappa = sv[0] / max(sv[-1], 1e-300)
-            step_tol = max(self.settings.step_tol, 10.0 * kappa * self.noise_rtol)
+            step_tol = max(self.settings.step_tol, 10.0 * kappa * self.sh.noise_rtol)
             if res <= self.tol and gauge_ok and float(np.max(np.abs(delta / D))) <= step_tol:
                 if tr.mode_final != pt.mode:
                     raise _Fail("section reached a switch")

@@ -354,6 +354,14 @@ class _Extrema:
             return _refined_extrema(self.tr.t, x)
 
 
+def mode_fractions(tr: Trajectory, period: float) -> dict[str, float]:
+    """Fraction of ``period`` that run ``tr`` spends in each mode (from its exact switch times)."""
+    fr: dict[str, float] = {}
+    for a, b, m in tr.mode_intervals():
+        fr[m] = fr.get(m, 0.0) + (b - a) / period
+    return fr
+
+
 def _classify(
     mult: np.ndarray, n_struct: int, family: bool, tol: float
 ) -> tuple[np.ndarray, tuple[str, ...], str]:
@@ -470,10 +478,7 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
         hi, lo = ext.extremes(n, x)
         amp[n] = max(abs(hi), abs(lo))
         hpp[n] = 0.5 * (hi - lo)
-    ivs = tr.mode_intervals()
-    fr: dict[str, float] = {}
-    for a, b, m in ivs:
-        fr[m] = fr.get(m, 0.0) + (b - a) / shooter.period
+    fr = mode_fractions(tr, shooter.period)
     seq = [mode0] + [e.target for e in tr.events]
     energy = {}
     en = sys_.energy

@@ -176,6 +176,11 @@ class Shooter:
         else:
             self.ext_values = np.zeros(0)
 
+    @property
+    def noise_rtol(self) -> float:
+        """Relative accuracy of one run of the map: ``rtol`` (IDA), rounding (the exact integrator)."""
+        return self.options.rtol if self.options.integrator != "exact" else 1e-15
+
     def dT(self) -> float:
         """d(period)/d(free parameter)."""
         return float(compile_scalar(self._dT, {}, self.params)(())) if self._dT is not None else 0.0
@@ -489,7 +494,7 @@ def newton(
     # and its exact Newton steps reach rounding.
     broyden = BROYDEN and shooter.options.integrator != "exact"
     # Relative accuracy of one run of the map (the exact integrator's is rounding).
-    noise_rtol = shooter.options.rtol if shooter.options.integrator != "exact" else 1e-15
+    noise_rtol = shooter.noise_rtol
     settle = False  # the residual met the tolerance and a further correction found no decrease
     while True:
         at[:] = [y, mode0, t0, it]
