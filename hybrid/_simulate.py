@@ -62,6 +62,12 @@ class _CallbackFailed(Exception):
         self.exc = exc
 
 
+def _ending(Y: np.ndarray, ts: np.ndarray, r: StepResult) -> np.ndarray:
+    """Rows ``Y`` of samples at ``ts`` with the one at the step's end ``r.t`` (if any) set to ``r.y``."""
+    Y[ts == r.t] = r.y
+    return Y
+
+
 class _Stop(Exception):
     def __init__(self, status: Status, message: str):
         super().__init__(message)
@@ -690,10 +696,20 @@ class _Run:
             )
         return self.finish(t, y, mode, status, message, start_mode, throw)
 
-    def emit_samples_upto(self, t: float, state_at, inclusive: bool) -> None:
+    def emit_samples_upto(self, t: float, state_at, inclusive: bool, many=None) -> None:
+        """Record the samples before ``t`` (and at it, if ``inclusive``): each from ``state_at(ts)
+        -> (y, mode)``, or all at once from ``many(ts) -> (rows of y, mode)`` if given."""
         if self.samples is None:
             return
         s = self.samples
+        if many is not None:
+            j = int(np.searchsorted(s, t, side="right" if inclusive else "left"))
+            if j > self.next_sample:
+                Y, m = many(s[self.next_sample : j])
+                for ts, ys in zip(s[self.next_sample : j].tolist(), Y, strict=True):
+                    self.record(ts, ys, m)
+                self.next_sample = j
+            return
         while self.next_sample < s.size and (
             s[self.next_sample] < t or (inclusive and s[self.next_sample] <= t)
         ):
@@ -715,10 +731,19 @@ class _Run:
         solver.start(t, y, yp)
         t_start = t
         where = f" in mode `{cm.name}`"
+        # A solver with exact dense output (the exact integrator) is not stepped to each sample:
+        # the samples of a step are taken from its flow afterwards, all at once.
+        dense = getattr(solver, "dense", False)
+        many = (lambda ts: (solver.interpolate_many(ts), mode)) if dense else None
         try:
             while True:
                 one_step = self.record_steps or bool(disarmed)
-                if not one_step and self.samples is not None and self.next_sample < self.samples.size:
+                if (
+                    not one_step
+                    and not dense
+                    and self.samples is not None
+                    and self.next_sample < self.samples.size
+                ):
                     tout = float(self.samples[self.next_sample])
                 else:
                     tout = self.t1
@@ -778,10 +803,15 @@ class _Run:
                             f"`{cm.guards[fired].name}` happen within the guard's noise band (below the "
                             "resolution of the tolerances); the switches accumulate here",
                         )
-                    self.emit_samples_upto(r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False)
+                    self.emit_samples_upto(
+                        r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False, many=many
+                    )
                     return self.switch(cm, fired, r.t, r.y)
                 self.emit_samples_upto(
-                    r.t, lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode), inclusive=True
+                    r.t,
+                    lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode),
+                    inclusive=True,
+                    many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode)) if dense else None,
                 )
                 if self.record_steps:
                     self.record(r.t, r.y, mode)

@@ -305,7 +305,7 @@ def test_parameters_read_at_call_time_equal_folded_ones(name):
 def test_a_whole_exact_band_agrees_with_ida(name):
     """The whole first stick-slip band of each damper (standard preset), continued with the exact
     integrator (its points, mode changes and steps chosen by the continuation), against IDA at rtol
-    1e-12 from each exact orbit's section: amplitudes, switch times (relative to the period) and Floquet
+    1e-12 (5e-13 where that stalls at its noise floor) from each exact orbit's section: amplitudes, switch times (relative to the period) and Floquet
     multipliers to 1e-8 or IDA's own error bound, 10 cond(I - M) rtol, if larger (cond reaches 1e5-1e7
     at the band's left edge; benchmarks/exact_vs_ida.py over the whole first piece, 0.683-1.012 rad/s:
     2.0e-10, 2.3e-10 T, 7.6e-10). An orbit next to a mode change, where one run resolves a phase the
@@ -316,20 +316,26 @@ def test_a_whole_exact_band_agrees_with_ida(name):
     p = system.preset("standard")
     br = continuation(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message
-    tight = SolverOptions(rtol=1e-12, atol=1e-14)
     band = [o for o in br.points if o.transitions_per_period > 0]
     assert len(band) >= 15
     skipped = 0
     for o in band:
-        q = periodic_orbit(
-            system, o.params, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=tight, tol=1e-11
-        )
+        # At rtol 1e-12 the map's noise can reach the residual tolerance 1e-11 (absorber near 0.8548: an
+        # IDA run from the exact orbit stops at 1.25e-11, no decrease possible along Newton's step);
+        # there the reference is rerun at 5e-13 (which stalls elsewhere, at the band's left edge).
+        for rtol in (1e-12, 5e-13):
+            tight = SolverOptions(rtol=rtol, atol=rtol * 1e-2)
+            q = periodic_orbit(
+                system, o.params, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=tight, tol=1e-11
+            )
+            if q.converged:
+                break
         assert q.converged, q.message
         if q.mode_sequence != o.mode_sequence:
             skipped += 1
             continue
         scale = max(o.amplitude[s] for s in o.state_names if s in o.amplitude)
-        tol = max(1e-8, 10.0 * q.condition * 1e-12)
+        tol = max(1e-8, 10.0 * q.condition * rtol)
         for k, v in o.amplitude.items():
             assert abs(q.amplitude[k] - v) <= tol * scale, (o.params["Omega"], k, q.condition)
         assert np.max(np.abs(q.switch_times - o.switch_times)) <= tol * o.period
