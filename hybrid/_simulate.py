@@ -811,7 +811,9 @@ class _Run:
                     r.t,
                     lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode),
                     inclusive=True,
-                    many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode)) if dense else None,
+                    many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode))
+                    if dense
+                    else None,
                 )
                 if self.record_steps:
                     self.record(r.t, r.y, mode)
