@@ -199,6 +199,20 @@ def _refined_extrema(t: np.ndarray, x: np.ndarray) -> tuple[float, float]:
     return refine(int(np.argmax(x)), 1.0), refine(int(np.argmin(x)), -1.0)
 
 
+#: Monomial coefficients (rows: powers 0..5) of the quintic Hermite basis on [0, 1], columns in the
+#: order y(0), y(1), y'(0), y'(1), y''(0), y''(1) (derivatives in s).
+_HERMITE5 = np.array(
+    [
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 0.0, 0.5, 0.0],
+        [-10.0, 10.0, -6.0, -4.0, -1.5, 0.5],
+        [15.0, -15.0, 8.0, 7.0, 1.5, -1.0],
+        [-6.0, 6.0, -3.0, -3.0, -0.5, 0.5],
+    ]
+)
+
+
 class _Extrema:
     """Largest and smallest value of a variable or output over a sampled run, located on the flow.
 
@@ -215,6 +229,7 @@ class _Extrema:
         self.cs, self.tr = cs, tr
         self.mid = {name: k for k, name in enumerate(cs.mode_index)}
         self._jets: dict[int, tuple] = {}
+        self._polys: dict[int, np.ndarray] = {}
         self._outputs = tr.outputs
 
     def jet(self, k: int) -> tuple:
@@ -230,27 +245,32 @@ class _Extrema:
             j = self._jets[k] = (y, yp, ypp)
         return j
 
+    def poly(self, k: int) -> np.ndarray:
+        """Monomial coefficients ``C`` (6 x n) of the quintic Hermite state between samples ``k`` and
+        ``k + 1``: ``y = sum_m C[m] s^m``, ``s = (t - t_k) / (t_(k+1) - t_k)`` in [0, 1]."""
+        C = self._polys.get(k)
+        if C is None:
+            h = float(self.tr.t[k + 1] - self.tr.t[k])
+            y0, d0, e0 = self.jet(k)
+            y1, d1, e1 = self.jet(k + 1)
+            C = self._polys[k] = _HERMITE5 @ np.array([y0, y1, h * d0, h * d1, h * h * e0, h * h * e1])
+        return C
+
     def state(self, k: int, t: float) -> np.ndarray:
         """Quintic Hermite state at ``t`` between samples ``k`` and ``k + 1``."""
-        t0, t1 = float(self.tr.t[k]), float(self.tr.t[k + 1])
-        h = t1 - t0
-        s = (t - t0) / h
-        y0, d0, e0 = self.jet(k)
-        y1, d1, e1 = self.jet(k + 1)
-        s2, s3, s4, s5 = s * s, s**3, s**4, s**5
-        h00 = 1 - 10 * s3 + 15 * s4 - 6 * s5
-        h01 = 1 - h00
-        h10 = s - 6 * s3 + 8 * s4 - 3 * s5
-        h11 = -4 * s3 + 7 * s4 - 3 * s5
-        h20 = 0.5 * (s2 - 3 * s3 + 3 * s4 - s5)
-        h21 = 0.5 * (s3 - 2 * s4 + s5)
-        return h00 * y0 + h01 * y1 + h * (h10 * d0 + h11 * d1) + h * h * (h20 * e0 + h21 * e1)
+        t0 = float(self.tr.t[k])
+        s = (t - t0) / float(self.tr.t[k + 1] - t0)
+        C = self.poly(k)
+        y = C[5]
+        for m in range(4, -1, -1):
+            y = y * s + C[m]
+        return y
 
     def value(self, name: str, k: int, t: float) -> float:
-        y = self.state(k, t)
         names = self.cs.system.variable_names
         if name in names:
-            return float(y[names.index(name)])
+            return float(self.state(k, t)[names.index(name)])
+        y = self.state(k, t)
         cm = self.cs.modes[self.cs.mode_index[str(self.tr.mode[k])]]
         return float(cm.outputs[name]([t, *y[: cm.n].tolist()]))
 
@@ -260,11 +280,33 @@ class _Extrema:
         return 0 <= k < len(tr.t) - 1 and tr.mode[k] == tr.mode[k + 1] and tr.t[k + 1] > tr.t[k]
 
     def refine(self, name: str, x: np.ndarray, k: int, sgn: float) -> float:
-        """The extremum (``sgn`` 1: max, -1: min) next to sample ``k`` on the interpolant: Newton's
-        method on its derivative (finite differences of the interpolant, a few evaluations), or a
-        bounded scalar search on each side of ``k`` where Newton does not settle."""
+        """The extremum (``sgn`` 1: max, -1: min) next to sample ``k`` on the interpolant: for a
+        variable, the largest of the quintic's values at the real roots of its derivative in the
+        two intervals around ``k`` and at their ends; for an output, Newton's method on its
+        derivative (finite differences of the interpolant, a few evaluations), or a bounded scalar
+        search on each side of ``k`` where Newton does not settle."""
+        names = self.cs.system.variable_names
+        if name in names:
+            return self._polynomial(names.index(name), x, k, sgn)
         v = self._newton(name, x, k, sgn)
         return v if v is not None else self._search(name, x, k, sgn)
+
+    def _polynomial(self, i: int, x: np.ndarray, k: int, sgn: float) -> float:
+        best = float(x[k])
+        for a in (k - 1, k):
+            if not self.smooth(a):
+                continue
+            c = self.poly(a)[:, i]
+            roots = np.roots(np.arange(5, 0, -1) * c[:0:-1])  # p'(s), highest power first
+            ss = [float(r.real) for r in roots if abs(r.imag) <= 1e-9 and 0.0 < r.real < 1.0]
+            for s_ in [*ss, 0.0, 1.0]:
+                v = (
+                    float(np.polyval(c[::-1], s_))
+                    if 0.0 < s_ < 1.0
+                    else float(x[a] if s_ == 0.0 else x[a + 1])
+                )
+                best = max(best, v) if sgn > 0 else min(best, v)
+        return best
 
     def _newton(self, name: str, x: np.ndarray, k: int, sgn: float) -> float | None:
         t = self.tr.t

@@ -27,7 +27,7 @@ The result and what is read off it (amplitudes, multipliers, verdict) are in :mo
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -133,14 +133,7 @@ class Shooter:
         self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
         nb = len(self.names)
         self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
-        gauge = system._cache.get("gauge")
-        if gauge is not None:
-            slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(self.names)}}
-            pconst = dict(self.params)
-            self._gauge = compile_scalar(gauge, slots, pconst)
-            self._gauge_grad = [compile_scalar(diff(gauge, nm), slots, pconst) for nm in self.names]
-        else:
-            self._gauge = None
+        self._gauge = _gauge_functions(system)
         pe = system._cache["period"]
         self._dT = diff(pe, free) if free else None
         self.nfev = 0
@@ -220,10 +213,30 @@ class Shooter:
         )
 
     def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
+        """The model's gauge at state ``y`` and its gradient in the state (None without a gauge)."""
         if self._gauge is None:
             return None
-        v = [0.0, *y.tolist()]
-        return float(self._gauge(v)), np.array([g(v) for g in self._gauge_grad])
+        fn, grad = self._gauge
+        v = [0.0, *y.tolist(), *(self.params[p.name] for p in self.system.parameters)]
+        return float(fn(v)), np.array([g(v) for g in grad])
+
+
+def _gauge_functions(system: HybridSystem) -> tuple[Callable, list[Callable]] | None:
+    """The model's ``[orbit] gauge`` and its gradient, compiled once per system with the parameters
+    read at call time (``v = [t, state..., parameters...]``); None without a gauge."""
+    gauge = system._cache.get("gauge")
+    if gauge is None:
+        return None
+    hit = system._cache.get("gauge_functions")
+    if hit is None:
+        names = system.variable_names
+        slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
+        slots.update({p.name: len(names) + 1 + j for j, p in enumerate(system.parameters)})
+        hit = system._cache["gauge_functions"] = (
+            compile_scalar(gauge, slots, {}),
+            [compile_scalar(diff(gauge, nm), slots, {}) for nm in names],
+        )
+    return hit
 
 
 # ----------------------------------------------------------------------
@@ -490,6 +503,7 @@ def newton(
     uphill = 0  # steps far from the orbit accepted without a decrease (reported)
     stalled = False  # the exact Newton step vanishes while the residual does not
     J_here = False  # J is the exact one at the current iterate
+    M_at = None  # (iterate, its monodromy): the final one is the orbit's (not computed twice)
     # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
     # and its exact Newton steps reach rounding.
     broyden = BROYDEN and shooter.options.integrator != "exact"
@@ -510,6 +524,7 @@ def newton(
         if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
             # the exact integrator: judge the correction with the exact Jacobian here (cheap)
             M = shooter.monodromy(tr)
+            M_at = (y, M)
             J, J_here = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
         if (
             res_norm <= tol
@@ -560,6 +575,7 @@ def newton(
             exact = J is None or J_here
             if J is None:
                 M = shooter.monodromy(tr)
+                M_at = (y, M)
                 J = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
             J_here = False
             sv = np.linalg.svd(J, compute_uv=False)
@@ -632,7 +648,8 @@ def newton(
     if uphill:
         note += f"{uphill} Newton step(s) far from the orbit accepted without a decrease of the residual; "
     at[:] = [y, mode0, t0, it]
-    return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note)
+    M = M_at[1] if M_at is not None and M_at[0] is y else None
+    return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, M=M)
 
 
 def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int, max_iter: int) -> bool:
