@@ -186,6 +186,27 @@ class _Point:
         return self._orbit if self._orbit is not None or self.summary is None else self.summary
 
 
+def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: int) -> _Point | None:
+    """The gauge member of the neutral family that ``new`` (a boundary member: one grazing switch
+    per period) belongs to, or None: corrected with the gauge enforced from ``pt`` along the
+    step, else from ``new`` moved onto the gauge's zero set (``y - g grad g / |grad g|^2``) at
+    its parameter value."""
+    starts = [(pt, ds)]
+    g = c.sh.gauge(new.y)
+    if g is not None and float(g[1] @ g[1]) > 0.0:
+        c.at(new.p)
+        y = new.y - g[0] * g[1] / float(g[1] @ g[1])
+        starts.append((_Point(y, new.p, new.mode, new.phi, tangent=new.tangent), 0.0))
+    for start, step in starts:
+        try:
+            alt = c.correct(start, step, samples, force_gauge=True)
+        except (_Fail, *_FAILURES):
+            continue
+        if alt.orbit.transitions_per_period == 0:
+            return alt
+    return None
+
+
 class _Continuer:
     def __init__(self, system, params, parameter, p_range, options, settings: ContinuationOptions):
         self.system = system
@@ -269,8 +290,9 @@ class _Continuer:
             res = float(np.max(np.abs(r))) / scale
             if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(sy, 1e-300):
                 raise _Fail(f"the response grows without bound near {self.parameter}={p:.8g}")
-            if prev is not None and res > prev[2]:
-                # Damped Newton: the map is only piecewise smooth and I - M nearly singular.
+            if prev is not None and res > max(prev[2], 1e-3 * self.tol):
+                # Damped Newton: the map is only piecewise smooth and I - M nearly singular (below
+                # tol / 1000 the residual is not compared: there the update decides convergence).
                 if lam <= 1.0 / 16:
                     raise _Fail(
                         f"corrector: no step decreases the residual ({prev[2]:.3g}) near "
@@ -570,12 +592,9 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             c.sh.gauge(new.y) is not None
             and 0 < new.orbit.transitions_per_period < pt.orbit.transitions_per_period
         ):
-            try:
-                alt = c.correct(pt, ds_cur, samples, force_gauge=True)
-                if alt.orbit.transitions_per_period == 0:
-                    new = alt
-            except (_Fail, *_FAILURES):
-                pass
+            alt = _gauge_member(c, pt, new, ds_cur, samples)
+            if alt is not None:
+                new = alt
         # Special points between pt and new, in arclength order; the orbit at each is appended
         # (unless it is `new` itself).
         found = detect(pt, new) if pt.orbit is not None else []

@@ -126,10 +126,11 @@ class AffineMode:
         return self.M.shape[0]
 
     def flow(self) -> Flow:
-        """The mode's :class:`Flow` (built on first use)."""
+        """The mode's :class:`Flow` (built on first use; shared by every mode with the same matrices,
+        e.g. a run's and its monodromy's at one parameter value)."""
         f = self.__dict__.get("_flow")
         if f is None:
-            f = self.__dict__["_flow"] = Flow(self.M, self.Q)
+            f = self.__dict__["_flow"] = shared_flow(self.M, self.Q)
         return f
 
     def augment(self, t: float, y: np.ndarray) -> np.ndarray:
@@ -402,6 +403,16 @@ class AffineAnalysis:
         return [_assemble(form, vals, omegas[m]) for m, form in enumerate(self.forms)]
 
 
+def _cond1(A: np.ndarray, Ainv: np.ndarray | None = None) -> float:
+    """Condition number of ``A`` in the 1-norm (``Ainv``: its inverse, if known); inf if singular."""
+    try:
+        Ainv = np.linalg.inv(A) if Ainv is None else Ainv
+    except np.linalg.LinAlgError:
+        return math.inf
+    c = float(np.abs(A).sum(axis=0).max() * np.abs(Ainv).sum(axis=0).max())
+    return c if math.isfinite(c) else math.inf
+
+
 def _assemble(form: _ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
     """``(omega, d, a, q, M, P, Q, W)`` of one mode from the coefficient values."""
     where = f"mode `{form.name}`"
@@ -418,11 +429,7 @@ def _assemble(form: _ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
     Pu[nu, nz - 1] = 1.0
     if a.size:
         Ga = G[:, a]
-        try:
-            cond = np.linalg.cond(Ga)
-        except np.linalg.LinAlgError:  # pragma: no cover - cond of a finite matrix
-            cond = math.inf
-        if not cond < 1e14:
+        if not _cond1(Ga) < 1e14:
             raise NotAffineError(f"{where}: the algebraic equations are singular in the slave variables")
         rest = Pu.copy()
         rest[a, :] = 0.0
@@ -550,7 +557,7 @@ def affine_system(cs: CompiledSystem) -> list[AffineMode]:
 # ----------------------------------------------------------------------------
 # Propagation
 # ----------------------------------------------------------------------------
-#: Largest condition number of the eigenvector matrix for the eigen-decomposition path of a flow.
+#: Largest condition number (1-norm) of the eigenvector matrix for the eigen-decomposition path of a flow.
 EIGEN_COND = 1e4
 # Pade [13/13] coefficients (Higham 2005) and the norm bound of the scaled matrix.
 _PADE13 = (
@@ -585,6 +592,24 @@ def matrix_exp(A: np.ndarray) -> np.ndarray:
     return E
 
 
+#: Flows kept by :func:`shared_flow` (the most recent ones).
+MAX_SHARED_FLOWS = 64
+_FLOWS: dict[bytes, Flow] = {}
+
+
+def shared_flow(M: np.ndarray, Q: np.ndarray) -> Flow:
+    """The :class:`Flow` of ``(M, Q)``, built once for equal matrices (its eigen-decomposition, guard
+    series and step kernels are then computed once for a parameter value, not once per run)."""
+    key = M.tobytes() + b"|" + Q.tobytes() + repr((M.shape, Q.shape)).encode()
+    f = _FLOWS.pop(key, None)
+    if f is None:
+        f = Flow(M, Q)
+        if len(_FLOWS) >= MAX_SHARED_FLOWS:
+            del _FLOWS[next(iter(_FLOWS))]
+    _FLOWS[key] = f  # most recent last
+    return f
+
+
 class Flow:
     """The exact flow ``z(h) = expm(M h) z`` of one affine mode, and its quadratures.
 
@@ -607,8 +632,9 @@ class Flow:
         self.eigen = False
         try:
             lam, V = np.linalg.eig(M)
-            if np.linalg.cond(V) <= EIGEN_COND:
-                self.lam, self.V, self.Vinv = lam, V, np.linalg.inv(V)
+            Vinv = np.linalg.inv(V)
+            if _cond1(V, Vinv) <= EIGEN_COND:
+                self.lam, self.V, self.Vinv = lam, V, Vinv
                 # quadratures in the eigenbasis: int z^T Q z = c^T (V^T Q V o Phi(h)) c, c = V^-1 z
                 self.QV = np.array([V.T @ Qj @ V for Qj in Q]).reshape(len(Q), self.nz, self.nz)
                 self.mu = lam[:, None] + lam[None, :]
@@ -649,6 +675,27 @@ class Flow:
         if self.eigen:
             return ((self.V * np.exp(self.lam * h)) @ self.Vinv).real
         return matrix_exp(self.M * h)
+
+    def frechet(self, h: float, D: np.ndarray) -> np.ndarray:
+        """``d/de expm((M + e D) h)`` at ``e = 0``: ``V (G o V^-1 D V) V^-1`` with the divided differences
+        ``G_jk = (exp(l_j h) - exp(l_k h)) / (l_j - l_k)`` of the eigenvalues (``h exp(l h)`` where
+        they meet); on the defective path the corner block of Van Loan's ``expm([[M, D], [0, M]] h)``."""
+        if not self.eigen:
+            nz = self.nz
+            B = np.zeros((2 * nz, 2 * nz))
+            B[:nz, :nz] = self.M
+            B[:nz, nz:] = D
+            B[nz:, nz:] = self.M
+            return matrix_exp(B * h)[:nz, nz:]
+        lam = self.lam
+        e = np.exp(lam * h)
+        x = (lam[:, None] - lam[None, :]) * h
+        small = np.abs(x) < 1e-3
+        x_safe = np.where(small, 1.0, x)
+        # (e_j - e_k) / (l_j - l_k) = h e_k (exp(x) - 1) / x, x = (l_j - l_k) h: a series where x is small
+        phi = np.where(small, 1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)), np.expm1(x) / x_safe)
+        G = h * e[None, :] * phi
+        return (self.V @ ((self.Vinv @ D @ self.V) * G) @ self.Vinv).real
 
     def prepare(self, z: np.ndarray):
         """What :meth:`advance` from ``z`` reuses for any ``h`` (eigen path; None otherwise)."""
@@ -975,14 +1022,12 @@ class ExactSensitivity:
     parameter last, if any): its differential rows follow the ``d``-block of
     ``expm(M h)``, its slave rows the elimination ``y_a = P_ad y_d + ...``. The
     column of a free parameter ``p`` (``dy(t1)/dp`` at a fixed start state) is
-    the central difference of the exact flows at ``p +- delta`` (``am_pm``),
-    ``delta = 1e-6 |p|``. Its truncation error is about ``delta**2``, but the
-    flows at each ``p`` round independently (their eigen-decompositions), so
-    its error is about ``eps / delta``: against IDA's variational column at
-    rtol 1e-12 it agrees to about 1e-8 relative (absorber at Omega = 0.8545:
-    6e-9). Richardson's extrapolation at ``delta = 1e-3 |p|`` agrees to 7e-11,
-    but the continuation of the isolator then strays in its pure-stick family
-    (a corrector fragility there, not an error of the column): kept as is.
+    ``dP z1 + P (dE z0 + E dz0)`` with ``E = expm(M h)``, ``dE`` its Frechet
+    derivative in the direction ``dM`` (:meth:`Flow.frechet`, from the same
+    eigen-decomposition), ``dz0`` the forcing phase's derivative; ``dM`` and
+    ``dP`` are central differences of the assembled matrices at ``p +- delta``
+    (``am_pm``, no decomposition there): exact where they are linear in ``p``
+    (a forcing frequency), else with an error about ``delta**2``.
 
     Parameters
     ----------
@@ -1010,9 +1055,24 @@ class ExactSensitivity:
         self.nfev = 0
         self._cache: dict[float, np.ndarray] = {}
 
-    def _flow(self, am: AffineMode, t0: float, y0: np.ndarray, h: float) -> np.ndarray:
-        z = am.flow().advance(am.augment(t0, y0), h)[0]
-        return am.P[self.state_idx] @ z
+    def _column(self, t0: float, y0: np.ndarray, h: float) -> np.ndarray:
+        """``dy(t0 + h)/dp`` at a fixed start ``(t0, y0)`` over the state indices."""
+        am = self.am
+        plus, minus, delta = self.am_pm
+        fl = am.flow()
+        z0 = am.augment(t0, y0)
+        dz0 = np.zeros_like(z0)
+        if am.omega is not None:  # the forcing phase w t0 of the start
+            dw = (plus.omega - minus.omega) / (2.0 * delta)
+            k = am.d.size
+            dz0[k] = t0 * math.cos(am.omega * t0) * dw
+            dz0[k + 1] = -t0 * math.sin(am.omega * t0) * dw
+        dM = (plus.M - minus.M) / (2.0 * delta)
+        dP = (plus.P - minus.P) / (2.0 * delta)
+        E = fl.matrix(h)
+        z1 = E @ z0
+        dz1 = fl.frechet(h, dM) @ z0 + E @ dz0
+        return (dP @ z1 + am.P @ dz1)[self.state_idx]
 
     def propagate(
         self, t0: float, y0: np.ndarray, Y0: np.ndarray, t1: float, budget=None
@@ -1033,9 +1093,7 @@ class ExactSensitivity:
         if self.pos_a.size:
             Y[self.pos_a] = self.P_ad @ Yd
         if self.pos_p.size:
-            plus, minus, delta = self.am_pm
-            yb = np.asarray(y0, dtype=float)[: self.n]
-            col = (self._flow(plus, t0, yb, h) - self._flow(minus, t0, yb, h)) / (2.0 * delta)
+            col = self._column(float(t0), np.asarray(y0, dtype=float)[: self.n], h)
             Y[self.rows] += np.outer(col, Y0[self.pos_p[0]])
             Y[self.pos_p] = Y0[self.pos_p]
         self.nfev += 1

@@ -547,16 +547,17 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
             else "the member nearest the guess is returned (the model declares no `[orbit] gauge`: an expression "
             "of the state that is 0 on the member wanted, e.g. a stuck element's offset, picks one; see README); "
         )
-    err = cond * shooter.options.rtol
+    err = cond * shooter.noise_rtol
     if sv.size and sv[0] == 0.0:
         msg += (
             "I - M vanishes: every nearby state is periodic (the map leaves all of them unchanged), "
             "cond(I - M) is infinite; "
         )
     elif err > 1e-6:
-        msg += (
-            f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about "
+        msg += f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about " + (
             f"cond x rtol = {err:.2g} (relative); tighten rtol for more; "
+            if shooter.options.integrator != "exact"
+            else f"cond x rounding = {err:.2g} (relative); "
         )
     conv = res_norm <= tol and not note
     msg += "converged" if conv else "converged in the residual, see above"

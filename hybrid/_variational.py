@@ -200,8 +200,9 @@ class Sensitivity:
         """The exact flow's sensitivity in mode ``m`` at the free parameters' values ``extend``.
 
         The flows come from the system's parametric affine analysis (microseconds per parameter
-        set); the column of a free parameter is the central difference of the exact flows at
-        ``p +- delta`` (:class:`hybrid._exact.ExactSensitivity`).
+        set); the column of a free parameter is the Frechet derivative of the exact flow, with the
+        matrices' derivatives by central differences at ``p +- delta``
+        (:class:`hybrid._exact.ExactSensitivity`).
         """
         from ._exact import ExactSensitivity, NotAffineError, affine_flows  # builds on this module's inputs
 
