@@ -327,3 +327,29 @@ def test_a_family_without_a_gauge_is_followed_without_wandering(tmp_path):
     assert all(o.converged for o in points)
     assert sum(o.family for o in points) >= len(points) // 2
     assert len(points) < 60
+
+
+def test_leaving_a_band_lands_on_the_gauge_member_not_on_a_grazing_one():
+    """Past the absorber's first stick-slip band the symmetric orbit loses both slip phases at once;
+    rounding lets one go first and the corrector may land on a boundary member of the neutral
+    pure-stick family (one grazing switch per period), then crawl along that boundary (before the
+    fix, this window gave 42 such orbits and stalled). Every orbit past the band must be the gauge
+    member: pure stick, with the amplitudes of the linear stick response (Eqs. A.1-A.2, closed form)."""
+    import hybrid_models
+    from hybrid import SolverOptions
+    from hybrid_models.linear import stick_amplitudes
+
+    system = hybrid_models.absorber()
+    p = system.preset("standard")
+    br = continuation(system, p, "Omega", (0.852, 0.858), options=SolverOptions(integrator="exact"))
+    assert br.status == "completed", br.message
+    band = max(o.transitions_per_period for o in br.points)
+    assert band == 4
+    graze = [o.params["Omega"] for o in br.points if 0 < o.transitions_per_period < band]
+    assert len(graze) <= 1, graze  # at most the orbit kept at a mode-loss bracket
+    past = [o for o in br.points if o.params["Omega"] > 0.8566]
+    assert past and all(o.transitions_per_period == 0 for o in past)
+    for o in past:
+        a1, a2 = stick_amplitudes(o.params)
+        assert o.amplitude["x1"] == pytest.approx(abs(float(a1)), rel=1e-8)
+        assert o.amplitude["x2"] == pytest.approx(abs(float(a2)), rel=1e-8)
