@@ -378,6 +378,21 @@ class AffineAnalysis:
             variables not determined by the algebraic equations, at these values.
         """
         v = [float(x) for x in values]
+        key = tuple(v)
+        cache = self.__dict__.setdefault("_evaluated", {})
+        hit = cache.pop(key, None)
+        if hit is None:
+            hit = self._evaluate(v)
+            for form in hit:
+                for x in form:
+                    if isinstance(x, np.ndarray):
+                        x.flags.writeable = False  # shared by every flow at these values
+            if len(cache) >= 16:
+                del cache[next(iter(cache))]
+        cache[key] = hit  # most recent last
+        return hit
+
+    def _evaluate(self, v: list[float]) -> list[tuple]:
         signs: list[float] = []
         omegas: list[float | None] = [None] * len(self.forms)
         if self._rate_fn is not None:

@@ -305,20 +305,26 @@ def test_parameters_read_at_call_time_equal_folded_ones(name):
 def test_a_whole_exact_band_agrees_with_ida(name):
     """The whole first stick-slip band of each damper (standard preset), continued with the exact
     integrator (its points, mode changes and steps chosen by the continuation), against IDA at rtol
-    1e-12 (5e-13 where that stalls at its noise floor) from each exact orbit's section: amplitudes, switch times (relative to the period) and Floquet
-    multipliers to 1e-8 or IDA's own error bound, 10 cond(I - M) rtol, if larger (cond reaches 1e5-1e7
-    at the band's left edge; benchmarks/exact_vs_ida.py over the whole first piece, 0.683-1.012 rad/s:
-    2.0e-10, 2.3e-10 T, 7.6e-10). An orbit next to a mode change, where one run resolves a phase the
-    other does not (different mode sequences), is skipped: one per band at most."""
+    1e-12 (5e-13 where that stalls at its noise floor) from each exact orbit's section: amplitudes,
+    switch times (relative to the period) and Floquet multipliers to 1e-8 or IDA's own error bound,
+    10 cond(I - M) rtol, if larger (cond reaches 1e5-1e7 at the band's left edge;
+    benchmarks/exact_vs_ida.py over the whole first piece, 0.683-1.012 rad/s: 2.0e-10, 2.3e-10 T,
+    7.6e-10). Skipped, two per band at most: an orbit next to a mode change where one run resolves a
+    phase the other does not (different mode sequences), and the orbit at a located mode change (a
+    phase of vanishing length: what moves only in it, e.g. the slip velocity, has an amplitude like
+    the square root of the state's error)."""
     from hybrid import SolverOptions, continuation, periodic_orbit
 
     system = getattr(hybrid_models, name)()
     p = system.preset("standard")
     br = continuation(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message
-    band = [o for o in br.points if o.transitions_per_period > 0]
+    at_change = {
+        s.index for s in br.special if s.kind in ("mode-gained", "mode-lost") and s.status == "located"
+    }
+    band = [o for k, o in enumerate(br.points) if o.transitions_per_period > 0 and k not in at_change]
     assert len(band) >= 15
-    skipped = 0
+    skipped = len(br.points) - len(band) - sum(1 for o in br.points if o.transitions_per_period == 0)
     for o in band:
         # At rtol 1e-12 the map's noise can reach the residual tolerance 1e-11 (absorber near 0.8548: an
         # IDA run from the exact orbit stops at 1.25e-11, no decrease possible along Newton's step);
@@ -341,7 +347,7 @@ def test_a_whole_exact_band_agrees_with_ida(name):
         assert np.max(np.abs(q.switch_times - o.switch_times)) <= tol * o.period
         fe, fq = o.floquet_multipliers, q.floquet_multipliers
         assert fe.size == fq.size and max(float(np.min(np.abs(fq - z))) for z in fe) <= tol
-    assert skipped <= 1
+    assert skipped <= 2
 
 
 @pytest.mark.parametrize("defective", [False, True])
