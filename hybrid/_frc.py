@@ -282,11 +282,12 @@ def frequency_response(
             out.timed_out = out.timed_out or (br.status == "stopped" and deadline_passed())
             return br
 
-        # A start that fails at the end of the range (e.g. a degenerate orbit there) is retried
-        # a little inside it; what lies before is a gap.
+        # A start that fails at the end of the range (e.g. a degenerate orbit there), or a branch
+        # that stalls at its first point, is retried a little inside it; what lies before is a gap.
         for start in [a] + [a + f * (b - a) for f in NO_START_RETRY]:
             up = run(start, b, done + (start - a))
-            if up.reason != "no-start" or deadline_passed():
+            stuck = up.reason == "no-start" or (up.reason == "stalled" and len(up.points) <= 1)
+            if not stuck or deadline_passed():
                 break
         reach = float(np.max(up.p)) if up.points else a
         if reach < b and deadline_passed():
