@@ -474,8 +474,9 @@ def newton(
     On the IDA path the first iterations run the map at a looser tolerance (:func:`_coarse`)
     while the residual is far above what such a run resolves, then at the requested one; the
     converged orbit, its residual and its monodromy are always those of ``shooter``. The coarse
-    stage is for the plain case only (full Newton steps, no family, no resonance): anything else
-    there, and Newton's method starts again from the guess at the requested tolerances.
+    stage is for the plain case only (no resonance, a decrease along every Newton direction):
+    anything else there, and Newton's method starts again from the guess at the requested
+    tolerances.
     """
     at = [] if at is None else at
     coarse = _coarse(shooter, tol)
@@ -539,7 +540,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
         r = nw.residual(tr, y)
         scale = _scale(y, d)
         res_norm = float(np.max(np.abs(r))) / scale
-        if sh is coarse and (it >= max_iter or family or scale > 1e3 * max(scale0, 1e-300)):
+        if sh is coarse and (it >= max_iter or scale > 1e3 * max(scale0, 1e-300)):
             return None
         if sh is coarse and res_norm <= COARSE_SWITCH * coarse.options.rtol:
             # Near the coarse map's noise: from here on the requested map. Its first Newton step
@@ -644,6 +645,8 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                     # outside its range (the line search then keeps the iterates from growing)
                     or float(np.max(np.abs(step))) > 1e3 * max(scale, scale0)
                 )
+            if sh is coarse and resonant:
+                return None  # not the plain case: diagnosed at the requested tolerances
             # The linear model corrects almost none of the mismatch (it lies outside the range of
             # the matrix): no progress is possible along Newton's step.
             if float(np.linalg.norm(A @ step)) <= 1e-3 * float(np.linalg.norm(rhs)):
@@ -661,7 +664,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             if found is not None or exact:
                 break
             J = None  # the updated Jacobian gave no descent: recompute it exactly at y
-        if sh is coarse and (stalled or resonant or family or found is None or found[2] != 1.0):
+        if sh is coarse and (stalled or resonant or found is None):
             return None  # not the plain case: diagnosed at the requested tolerances
         if stalled:
             continue
