@@ -33,6 +33,7 @@ from ._expr import (
     substitute,
     sym,
     taylor_eval,
+    taylor_eval_many,
 )
 from ._system import HybridSystem
 
@@ -317,12 +318,15 @@ class CompiledMode:
         Jzz = None
         if a.size:
             Jzz = self.dFdy(t, y)[np.ix_(a, a)]
+        f_rows, f_roots = list(self.f_expr), tuple(self.f_expr.values())
+        g_roots = tuple(self.g_expr[i] for i in a)
         for k in range(order):
-            env = self._env(tj, X)
-            for i, e in self.f_expr.items():
-                X[i, k + 1] = taylor_eval(e, env)[k] / (k + 1)
+            env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
+            series = taylor_eval_many(f_roots, env)  # shared sub-expressions once
+            for i, c in zip(f_rows, series, strict=True):
+                X[i, k + 1] = c[k] / (k + 1)
             if a.size:
-                r = np.array([taylor_eval(self.g_expr[i], env)[k + 1] for i in a])
+                r = np.array([c[k + 1] for c in taylor_eval_many(g_roots, env)])
                 X[a, k + 1] = -np.linalg.solve(Jzz, r)
         return X
 

@@ -135,12 +135,27 @@ class ModeSolver:
         self.njev_last = 0
         self._guard_fns = [g.fn for g in mode.guards]
 
+        # The callbacks are the hot path of a run (about 2000 calls per forcing period): the
+        # mode's generated functions are called directly, without the CompiledMode wrappers.
+        # dF/dy + cj dF/dy' = jac_base + cj diag(is_diff), then the varying entries (flat indices).
+        res_fn, jac_fn, base = mode._res_fn, mode._jac_fn, mode.jac_base
+        cj_mask = np.diag(mode.is_diff.astype(float))
+        flat_at = mode._jac_at[0] * mode.n + mode._jac_at[1]
+        cj_at = cj_mask.reshape(-1)[flat_at]  # cj's share of a varying entry on the diagonal
+        if not cj_at.any():
+            cj_at = None
+
         def resfn(t, y, yp, res):
-            mode.residual(t, y, yp, res)
+            res[:] = res_fn([t, *y.tolist(), *yp.tolist()])
 
         def jacfn(t, y, yp, res, cj, JJ):
-            mode.jacobian(t, y, cj, JJ)
+            np.multiply(cj_mask, cj, out=JJ)
+            JJ += base
+            if jac_fn is not None:
+                v = jac_fn([t, *y.tolist()])
+                np.put(JJ, flat_at, v if cj_at is None else np.asarray(v, dtype=float) + cj * cj_at)
 
+        self._resfn, self._jacfn = resfn, jacfn
         opts = dict(
             rtol=rtol,
             atol=atol,
@@ -154,10 +169,11 @@ class ModeSolver:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
             armed, safe, gfn = self.armed, self.safe, mode._guards_fn
+            self._all_armed = all_armed = [True]  # armed.all(), updated at every call into IDA
 
             def eventsfn(t, y, yp, out):
                 out[:] = gfn([t, *y.tolist()])  # all guards in one generated function
-                if not armed.all():
+                if not all_armed[0]:
                     out[~armed] = safe[~armed]
 
             eventsfn.terminal = [True] * ng
@@ -172,6 +188,8 @@ class ModeSolver:
     def start(self, t: float, y: np.ndarray, yp: np.ndarray) -> None:
         """(Re)initialise at a consistent point ``(t, y, y')``."""
         self._ida.init_step(float(t), np.asarray(y, dtype=float), np.asarray(yp, dtype=float))
+        if self._events is not None:
+            self._all_armed[0] = bool(self.armed.all())
         self.nfev_last = self.njev_last = 0
         self._t = float(t)
         self._y, self._yp = np.array(y, dtype=float), np.array(yp, dtype=float)
@@ -180,7 +198,7 @@ class ModeSolver:
         # sksundae keeps every event ever found on the events function and
         # rebuilds arrays of all of them after each call: keep it empty.
         ev = self._events
-        if ev is not None:
+        if ev is not None and ev._i:  # (the counts grow only with the list)
             ev._i.clear()
             ev._t.clear()
             ev._y.clear()
@@ -189,6 +207,8 @@ class ModeSolver:
 
     def step(self, tout: float, tstop: float, *, one_step: bool) -> StepResult:
         """Advance towards ``tout`` (one internal step if ``one_step``), never past ``tstop``."""
+        if self._events is not None:
+            self._all_armed[0] = bool(self.armed.all())  # the caller (dis)arms between calls only
         r, bad = _call(self._ida, float(tout), "onestep" if one_step else "normal", float(tstop))
         if bad is not None:
             self._clear_events()
@@ -199,13 +219,16 @@ class ModeSolver:
         self._clear_events()
         self.nfev_last, self.njev_last = int(r.nfev), int(r.njev)
         msg = str(r.message) + (f" {_NOTES.text}" if r.status < 0 and _NOTES.text else "")
-        res = StepResult(int(r.status), float(r.t), np.array(r.y), np.array(r.yp), fired, msg)
+        # r.y, r.yp are scikit-sundae's copies, owned by this result alone
+        res = StepResult(int(r.status), float(r.t), np.asarray(r.y), np.asarray(r.yp), fired, msg)
         if res.status >= 0:
             self._t, self._y, self._yp = res.t, res.y, res.yp
         return res
 
     def interpolate(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """State at ``t`` inside the last internal step (no advance)."""
+        if self._events is not None:
+            self._all_armed[0] = bool(self.armed.all())
         r, bad = _call(self._ida, float(t), "normal", None)
         self._clear_events()
         if bad is not None or r.status < 0:
@@ -275,9 +298,7 @@ class SensitivitySolver:
         )
         jac_fn = mode._jac_fn
         self._ix = ix
-        mcol = mask[:, None]
         N = n + ns * ns
-        blocks = [slice(n + j * ns, n + (j + 1) * ns) for j in range(ns)]
 
         def J_ss(t, y):
             if self._J_const is not None:
@@ -288,24 +309,36 @@ class SensitivitySolver:
 
         self.J_ss = J_ss
 
+        # The residual of the sensitivities in transposed form, written in place: row j of the
+        # C-ordered (ns, ns) view of z[n:] is column j of Y, so the residual's rows are
+        # Y^T J^T + Y'^T diag(mask) (one product, no reshaped copies).
+        res_fn = mode._res_fn
+        mrow = mask[None, :]
+        J_const_T = self._J_const.T.copy() if self._J_const is not None else None
+
         def resfn(t, z, zp, res):
-            y = z[:n]
-            mode.residual(t, y, zp[:n], res)
-            Y = z[n:].reshape((ns, ns), order="F")
-            Yp = zp[n:].reshape((ns, ns), order="F")
-            res[n:] = (mcol * Yp + J_ss(t, y) @ Y).ravel(order="F")
+            res[:n] = res_fn([t, *z[:n].tolist(), *zp[:n].tolist()])
+            R = res[n:].reshape((ns, ns))
+            Jt = J_const_T if J_const_T is not None else J_ss(t, z[:n]).T
+            np.matmul(z[n:].reshape((ns, ns)), Jt, out=R)
+            R += zp[n:].reshape((ns, ns)) * mrow
 
         dmask = np.diag(mask)
+        top = np.empty((n, n))
+        # Flat positions of the ns diagonal blocks (one per column of Y) in the N x N matrix.
+        k = np.arange(ns)
+        flat_blocks = (
+            (n + k[:, None, None] * ns + k[None, :, None]) * N + n + k[:, None, None] * ns + k[None, None, :]
+        ).ravel()
 
         def jacfn(t, z, zp, res, cj, JJ):
-            JJ[:, :] = 0.0
-            top = np.empty((n, n))
+            JJ.fill(0.0)
             mode.jacobian(t, z[:n], cj, top)
             JJ[:n, :n] = top
             B = J_ss(t, z[:n]) + cj * dmask
-            for b in blocks:
-                JJ[b, b] = B
+            np.put(JJ, flat_blocks, np.broadcast_to(B, (ns, ns, ns)))
 
+        self._resfn, self._jacfn = resfn, jacfn
         alg = list(mode.alg_idx.tolist())
         alg_s = [k for k, i in enumerate(self.s.tolist()) if not mode.is_diff[i]]
         for j in range(ns):

@@ -13,6 +13,7 @@ closures (no code generation) and evaluates truncated Taylor series.
 from __future__ import annotations
 
 import ast
+import functools
 import math
 import re
 import types
@@ -31,6 +32,7 @@ __all__ = [
     "free_symbols",
     "compile_scalar",
     "taylor_eval",
+    "taylor_eval_many",
 ]
 
 MAX_EXPRESSION_LENGTH = 10_000
@@ -878,6 +880,13 @@ def _jcall(name: str, a: np.ndarray) -> np.ndarray:
     raise KeyError(name)  # pragma: no cover
 
 
+@functools.lru_cache(maxsize=1024)
+def _postorder_of(roots: tuple[Expr, ...]) -> tuple[Expr, ...]:
+    """:func:`postorder` of ``roots``, kept: Taylor series evaluate the same few expressions at
+    every switch of a run."""
+    return tuple(postorder(roots))
+
+
 def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
     """Evaluate an expression on truncated Taylor series.
 
@@ -894,6 +903,11 @@ def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
     ndarray, shape (K+1,)
         Taylor coefficients of the expression.
     """
+    return taylor_eval_many((e,), env)[0]
+
+
+def taylor_eval_many(roots: tuple[Expr, ...], env: Mapping[str, np.ndarray | float]) -> list[np.ndarray]:
+    """:func:`taylor_eval` of several expressions at once, each shared sub-expression once."""
     order = next(len(v) for v in env.values() if isinstance(v, np.ndarray))
 
     def const(c: float) -> np.ndarray:
@@ -902,7 +916,7 @@ def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
         return out
 
     val: dict[Expr, np.ndarray] = {}
-    for node in postorder([e]):
+    for node in _postorder_of(tuple(roots)):
         op = node.op
         if op == "num":
             out = const(node.args[0])
@@ -933,4 +947,4 @@ def taylor_eval(e: Expr, env: Mapping[str, np.ndarray | float]) -> np.ndarray:
         else:  # pragma: no cover
             raise AssertionError(op)
         val[node] = out
-    return val[e]
+    return [val[e] for e in roots]

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 import numpy as np
 
@@ -482,8 +483,36 @@ def newton(
     """Newton's method on ``P(y) = y`` from a section state (see :func:`periodic_orbit`).
 
     ``at`` (a list) receives the current section state, mode, time and iteration.
+
+    On the IDA path the first iterations run the map at a looser tolerance (:func:`_coarse`)
+    while the residual is far above what such a run resolves, then at the requested one; the
+    converged orbit, its residual and its monodromy are always those of ``shooter``. The coarse
+    stage is for the plain case only (no resonance, a decrease along every Newton direction):
+    anything else there, and Newton's method starts again from the guess at the requested
+    tolerances.
     """
     at = [] if at is None else at
+    coarse = _coarse(shooter, tol)
+    if coarse is not None:
+        stage = ["coarse"]
+        try:
+            out = _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage)
+        except (RuntimeError, ZeroDivisionError):  # a failed run or monodromy (a grazing switch)
+            if stage[0] != "coarse":
+                raise  # at the requested tolerances: the caller reports it
+            out = None
+        finally:
+            shooter.nfev += coarse.nfev
+        if out is not None:
+            return out
+    return _newton(shooter, None, y, mode0, t0, tol, max_iter, samples, at, ["fine"])
+
+
+def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) -> PeriodicOrbit | None:
+    """:func:`newton` from ``coarse`` (a Shooter at a looser tolerance, or None) then ``shooter``.
+
+    Returns None where the coarse stage gives up (``stage[0]`` is ``"coarse"`` until it ends).
+    """
     nw = _Newton(shooter, mode0)
     d = nw.d
     rcond = 1e-7
@@ -499,33 +528,58 @@ def newton(
     rephased = 0
     resonant = False  # I - M singular with the mismatch outside its range, at the last iteration
     tr = None  # the run from y, when the line search already has it
+    sampled = False  # tr is a sampled run (samples per period), usable for the result
     J = None  # M_dd - I: exact after a monodromy, then Broyden-updated (None: recompute)
     uphill = 0  # steps far from the orbit accepted without a decrease (reported)
     stalled = False  # the exact Newton step vanishes while the residual does not
     J_here = False  # J is the exact one at the current iterate
-    M_at = None  # (iterate, its monodromy): the final one is the orbit's (not computed twice)
+    M_y = None  # the monodromy at y at the requested tolerances, if made (the result's, if y is)
     # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
     # and its exact Newton steps reach rounding.
     broyden = BROYDEN and shooter.options.integrator != "exact"
     # Relative accuracy of one run of the map (the exact integrator's is rounding).
     noise_rtol = shooter.noise_rtol
     settle = False  # the residual met the tolerance and a further correction found no decrease
+    sh = coarse or shooter  # the map of the current iteration
+    pending = None  # the coarse run from y, for I - M at the first step of the requested map
     while True:
         at[:] = [y, mode0, t0, it]
         if tr is None:
-            tr = shooter.run(y, mode0, t0)
+            tr, sampled = sh.run(y, mode0, t0), False
+        if sh is coarse and not tr.success:
+            return None
         if not tr.success:
             return _failed(shooter, y, mode0, t0, it, res_norm, f"run failed at iteration {it}: {tr.message}")
         r = nw.residual(tr, y)
         scale = _scale(y, d)
         res_norm = float(np.max(np.abs(r))) / scale
+        if sh is coarse and (it >= max_iter or scale > 1e3 * max(scale0, 1e-300)):
+            return None
+        if sh is coarse and res_norm <= COARSE_SWITCH * coarse.options.rtol:
+            # Near the coarse map's noise: from here on the requested map. Its first Newton step
+            # takes I - M from the coarse run here (accurate to about its rtol, made only if
+            # needed); Broyden's updates follow from runs of the requested accuracy only.
+            sh, pending, tr, J, stage[0] = shooter, tr, None, None, "fine"
+            continue
         g = shooter.gauge(y)
         gauge_bad = family and g is not None and abs(g[0]) > tol * scale
         if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
             # the exact integrator: judge the correction with the exact Jacobian here (cheap)
-            M = shooter.monodromy(tr)
-            M_at = (y, M)
-            J, J_here = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
+            M_y = shooter.monodromy(tr)
+            J, J_here = M_y[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
+        elif (
+            res_norm <= tol
+            and not gauge_bad
+            and not settle
+            and M_y is None
+            and noise_rtol >= 1e-14
+            and it < max_iter
+            and tr.mode_final == mode0
+        ):
+            # IDA: the correction is judged with the exact Jacobian here, from the monodromy the
+            # result needs if y is accepted (not from Broyden's estimate, nor accepted unjudged)
+            M_y = shooter.monodromy(tr)
+            J, J_here = M_y[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
         if (
             res_norm <= tol
             and not gauge_bad
@@ -540,7 +594,7 @@ def newton(
                 t0, y, mode0 = t1, y1, m1
                 nw = _Newton(shooter, mode0)
                 d = nw.d
-                tr, J = None, None
+                tr, J, M_y = None, None, None
                 continue
             note = "the mode at t0 + T differs from the section's mode; "
             break
@@ -572,11 +626,19 @@ def newton(
             )
         it += 1
         while True:  # a Newton direction, then an Armijo line search along it
-            exact = J is None or J_here
+            if J is None and pending is not None:
+                try:
+                    M = coarse.monodromy(pending)
+                    J = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
+                except (RuntimeError, ZeroDivisionError):
+                    pass  # the requested map's own, below
+                pending = None
+            exact = J is None or J_here  # (not the coarse one: without descent it is made exact)
             if J is None:
-                M = shooter.monodromy(tr)
-                M_at = (y, M)
+                M = sh.monodromy(tr)
                 J = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
+                if sh is shooter:
+                    M_y = M
             J_here = False
             sv = np.linalg.svd(J, compute_uv=False)
             family = is_family(sv)
@@ -592,10 +654,12 @@ def newton(
                         and rn > 0
                         and np.linalg.norm(A @ step - rhs) > 0.5 * rn
                     )
-                    # a Newton step thousands of times the state: I - M nearly singular, mismatch outside
-                    # its range (the line search then keeps the iterates from growing)
+                    # a Newton step thousands of times the state: I - M nearly singular, mismatch
+                    # outside its range (the line search then keeps the iterates from growing)
                     or float(np.max(np.abs(step))) > 1e3 * max(scale, scale0)
                 )
+            if sh is coarse and resonant:
+                return None  # not the plain case: diagnosed at the requested tolerances
             # The linear model corrects almost none of the mismatch (it lies outside the range of
             # the matrix): no progress is possible along Newton's step.
             if float(np.linalg.norm(A @ step)) <= 1e-3 * float(np.linalg.norm(rhs)):
@@ -604,12 +668,17 @@ def newton(
                     break
                 J = None
                 continue
+            # A step expected to end at the orbit is run with samples: accepted, its run is
+            # the result's (nothing is integrated twice).
+            ahead = samples if (sh is shooter and res_norm <= SAMPLE_AHEAD * tol) else None
             found, best = _line_search(
-                shooter, nw, y, mode0, t0, step, pinv, family, float(np.linalg.norm(rhs))
+                sh, nw, y, mode0, t0, step, pinv, family, float(np.linalg.norm(rhs)), ahead
             )
             if found is not None or exact:
                 break
             J = None  # the updated Jacobian gave no descent: recompute it exactly at y
+        if sh is coarse and (stalled or resonant or found is None):
+            return None  # not the plain case: diagnosed at the requested tolerances
         if stalled:
             continue
         if found is None and res_norm <= tol:
@@ -624,18 +693,25 @@ def newton(
                     t0,
                     it,
                     res_norm,
-                    "Newton's method found no decrease of the residual along its direction (the map is "
-                    f"not smooth here, or not accurate enough for the tolerance); {HINT} "
+                    "Newton's method found no decrease of the residual along its direction (the map "
+                    f"is not smooth here, or not accurate enough for the tolerance); {HINT} "
                     f"({it} iterations, residual {res_norm:.3g})",
                 )
             # Far from the orbit (a transient's guess): take the best point tried, uphill, and say so.
             found = best
             if found is None:
                 return _failed(
-                    shooter, y, mode0, t0, it, res_norm, f"every run along the Newton step failed ({HINT})"
+                    shooter,
+                    y,
+                    mode0,
+                    t0,
+                    it,
+                    res_norm,
+                    f"every run along the Newton step failed ({HINT})",
                 )
             uphill += 1
         y_new, tr, lam = found
+        sampled = not isinstance(tr, _Deferred) and ahead is not None and lam == 1.0
         # Broyden's update of J from the step taken (exact again whenever the line search cut it).
         r_new = nw.residual(tr, y_new)
         s_d = y_new[d] - y[d]
@@ -644,31 +720,60 @@ def newton(
             J = J + np.outer((r_new - r) - J @ s_d, s_d) / ss
         else:
             J = None
-        y = y_new
+        y, M_y, pending = y_new, None, None
     if uphill:
         note += f"{uphill} Newton step(s) far from the orbit accepted without a decrease of the residual; "
     at[:] = [y, mode0, t0, it]
-    M = M_at[1] if M_at is not None and M_at[0] is y else None
-    return _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, M=M)
+    return _finish(
+        shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=tr if sampled else None, M=M_y
+    )
+
+
+def _coarse(shooter: Shooter, tol: float) -> Shooter | None:
+    """The period map at the looser tolerance ``COARSE_RTOL`` (absolute tolerances scaled alike),
+    for the first Newton iterations on the IDA path; None where it would not save anything (the
+    exact integrator, a requested rtol already near it, or a tolerance it cannot approach)."""
+    o = shooter.options
+    rc = COARSE_RTOL
+    if o.integrator == "exact" or rc < 100.0 * o.rtol or COARSE_SWITCH * rc <= 10.0 * tol:
+        return None
+    f = rc / o.rtol
+    atol = {k: v * f for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol * f
+    opts = replace(o, rtol=rc, atol=atol, atol_default=o.atol_default * f)
+    return Shooter(shooter.system, shooter.params, opts, shooter.free)
 
 
 def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int, max_iter: int) -> bool:
     """A residual below the tolerance is not yet an accurate state when ``I - M`` is ill-conditioned:
     with a Jacobian at hand, the Newton correction it gives must be below the tolerance too (or at
-    the noise level of the map, ``10 cond x rtol``, relative to ``scale``), else one more step is
-    taken (Broyden's iterates stop earlier than quadratic ones would)."""
+    the noise level of the map, ``SETTLE_NOISE x cond x rtol``, relative to ``scale``), else one
+    more step is taken (Broyden's iterates stop earlier than quadratic ones would)."""
     if J is None or it >= max_iter:
         return True
     sv = np.linalg.svd(J, compute_uv=False)
     if not sv.size or sv[0] == 0.0:
         return True
     corr = np.linalg.lstsq(J, -r, rcond=rcond)[0]
-    noise = 10.0 * sv[0] / max(sv[-1], rcond * sv[0]) * rtol
+    noise = SETTLE_NOISE * sv[0] / max(sv[-1], rcond * sv[0]) * rtol
     return float(np.max(np.abs(corr))) <= max(tol, noise) * scale
 
 
+#: The noise level of a Newton correction in :func:`_settled`, in units of ``cond(I - M) x rtol``.
+SETTLE_NOISE = 10.0
+
 #: Broyden's updates of I - M between exact monodromies on the IDA path (False: exact Newton).
 BROYDEN = True
+
+
+#: Relative tolerance of the coarse runs of the map (the first Newton iterations on the IDA path).
+COARSE_RTOL = 1e-7
+
+#: The coarse runs are used while the residual is above this multiple of their rtol.
+COARSE_SWITCH = 1e3
+
+#: A Newton step from a residual below this multiple of the tolerance is run with samples (it is
+#: expected to end at the orbit, whose sampled run the result needs).
+SAMPLE_AHEAD = 100.0
 
 
 #: Armijo's sufficient-decrease constant.
@@ -684,7 +789,7 @@ def _rhs(r: np.ndarray, g, family: bool) -> np.ndarray:
     return np.concatenate([-r, [-g[0]]]) if (family and g is not None) else -r
 
 
-def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0):
+def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0, samples=None):
     """Armijo backtracking along the Newton step ``step = pinv @ rhs(y)``.
 
     The first ``lam = 1, 1/2, ...`` is taken where the residual norm ``|rhs|`` decreases
@@ -695,6 +800,9 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0):
     nearly singular ``I - M`` decreases only along steps thousands of times shorter than
     Newton's; near the orbit it is the plain residual that is reliable (the natural norm
     amplifies the integration noise by ``cond(I - M)``).
+
+    The first trial (``lam = 1``) is run with ``samples`` per period if given (a step expected to
+    end at the orbit).
 
     Returns ``(found, best)``: ``found = (y_new, run, lam)`` or None (the run is kept for the
     next iteration: nothing is integrated twice); without one, ``best`` is the tried point of
@@ -712,7 +820,11 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0):
         except Exception:  # AlgebraicSolveError: no consistent point there
             lam *= 0.5
             continue
-        tr = shooter.run(y_new, mode0, t0)
+        tr = (
+            shooter._run(y_new, mode0, t0, samples)
+            if (samples and lam == 1.0)
+            else shooter.run(y_new, mode0, t0)
+        )
         if tr.success and np.all(np.isfinite(tr.y_final)):
             rhs = _rhs(nw.residual(tr, y_new), shooter.gauge(y_new), family)
             phi = float(np.linalg.norm(pinv @ rhs))

@@ -391,15 +391,17 @@ def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
         assert abs(s.parameter - ref) <= s.accuracy + 1e-12, (s.kind, s.parameter, ref, s.accuracy)
 
 
-def test_ida_brackets_of_slip_onset_and_loss_contain_the_closed_form_crossings():
-    """With IDA (rtol 1e-10) the same mode changes are bracketed, not located (a phase shorter than
-    the map's noise is not resolved); each bracket must contain the closed-form crossing and be
-    narrower than 1e-6 rad/s."""
+@pytest.mark.parametrize("window", [(0.852, 0.858), (1.166, 1.175)])
+def test_ida_brackets_of_slip_onset_and_loss_contain_the_closed_form_crossings(window):
+    """With IDA (rtol 1e-10) the same mode changes are bracketed, not located (a phase whose guard
+    crosses less deeply than its noise band is not seen: the signature flips up to 1e-8 rad/s off
+    the point); each bracket, widened to the extrapolated zero of the squared fraction, must
+    contain the closed-form crossing and be narrower than 1e-6 rad/s (measured: 1.2e-8 to 6e-8;
+    the bare signature bracket of the onset missed it by 6e-9)."""
     import hybrid_models
 
     system = hybrid_models.absorber()
     p = system.preset("standard")
-    window = (0.852, 0.858)
     br = continuation(system, p, "Omega", window)
     assert br.status == "completed", br.message
     changes = sorted(
