@@ -42,7 +42,7 @@ from ._shooting import periodic_orbit
 from ._simulate import SimulationError, initial_state, simulate
 from ._system import HybridSystem, ModelError
 
-__all__ = ["main", "resolve_model"]
+__all__ = ["main", "resolve_model", "writable_folder"]
 
 ENTRY_POINT_GROUP = "hybrid.models"
 #: Entry points adding subcommands: ``name = "package.module:register"``, ``register(subparsers)``.
@@ -500,6 +500,17 @@ def _output_dir(system: HybridSystem, args) -> Path:
         if not args.out.strip():
             raise UsageError("`--out` needs a folder path, got an empty string")
         out = Path(args.out)
+    return writable_folder(out)
+
+
+def writable_folder(out: Path) -> Path:
+    """``out`` (the folder of ``--out``), created and checked writable before any computation.
+
+    Raises
+    ------
+    UsageError
+        It exists and is not a folder, or cannot be created or written.
+    """
     if out.exists() and not out.is_dir():
         raise UsageError(f"`--out {out}`: exists and is not a folder")
     try:

@@ -14,8 +14,6 @@ References
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import os
 import platform
 import sys
@@ -23,9 +21,9 @@ import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
-import numpy as np
-
 from hybrid import ProgressBar
+from hybrid._io import to_json  # one JSON convention (non-finite floats as null) for every output
+from hybrid.cli import writable_folder
 
 __all__ = ["register", "run", "parse_figures", "parse_workers", "output_folder", "write_csv"]
 
@@ -109,17 +107,7 @@ def output_folder(text: str) -> Path:
     """
     if not text.strip():
         raise ValueError("`--out` needs a folder path, got an empty string")
-    out = Path(text)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"`--out {out}`: exists and is not a folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".reproduce-write-test-{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise ValueError(f"output folder {str(out)!r} cannot be written: {exc.strerror or exc}") from None
-    return out
+    return writable_folder(Path(text))
 
 
 def _timed(job):
@@ -150,18 +138,6 @@ def _run_all(jobs: list, workers: int, bar, done_weight: list, total_weight: flo
                 done_weight[0] += j.weight
                 bar(done_weight[0] / total_weight)
     return results
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
 
 
 def write_csv(rows: list[dict], path: Path) -> Path:
@@ -243,7 +219,7 @@ def run(args) -> int:
             "jobs": len(own),
             "load_average": list(load1),
         }
-        stem.with_suffix(".json").write_text(json.dumps(_jsonable(info), indent=1) + "\n")
+        stem.with_suffix(".json").write_text(to_json(info) + "\n")
         summary.append(info)
         print(f"Fig. {fig.id}: {fig.verdict} [{stem.with_suffix('.png')}]")
     total_wall = time.perf_counter() - t0
@@ -264,7 +240,7 @@ def run(args) -> int:
         "jobs": len(timed),
         "date_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }
-    (out / "reproduce.json").write_text(json.dumps(_jsonable(meta), indent=1) + "\n")
+    (out / "reproduce.json").write_text(to_json(meta) + "\n")
     from .report import write_report
 
     write_report(report, out, meta, summary)

@@ -147,6 +147,16 @@ class Curve:
     seconds: float = 0.0
 
     @property
+    def turns(self) -> int:
+        """Turning points (folds) of the branches: where ``Omega`` reverses along a branch."""
+        n = 0
+        for b in np.unique(self.branch):
+            d = np.diff(self.omega[self.branch == b])
+            d = d[d != 0]
+            n += int(np.sum(np.sign(d[1:]) != np.sign(d[:-1])))
+        return n
+
+    @property
     def bounded(self) -> bool:
         """No band of the window where the response grows without bound."""
         return not any(why == "unbounded" for _, _, why in self.gaps)
