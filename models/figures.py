@@ -71,8 +71,8 @@ class FigureResult:
     integrator : str
         ``"exact"``, ``"ida"`` or ``"none"`` (closed forms only).
     ida_check : dict or None
-        Peaks of x1 of up to three curves by the exact integrator and by IDA (rtol 1e-10), and the
-        largest relative difference.
+        Peaks of x1 of up to three curves by the exact integrator, the same orbits by IDA
+        (rtol 1e-10), and the largest relative difference.
     """
 
     id: str

@@ -60,7 +60,7 @@ class Job:
     @property
     def weight(self) -> float:
         """Rough cost in curves (for the progress bar)."""
-        return {"optimum": 14.0, "bounded-limit": 9.0, "ida-peak": 2.0, "orbit": 0.3}.get(self.kind, 1.0)
+        return {"optimum": 14.0, "bounded-limit": 9.0, "ida-peak": 0.5, "orbit": 0.3}.get(self.kind, 1.0)
 
 
 def _items(params: dict) -> tuple:
@@ -106,7 +106,7 @@ def _orbit(model: str, params: dict, integrator: str) -> dict:
         "mode": [str(m) for m in tr.mode],
         "mode_sequence": list(o.mode_sequence),
         "mode_fractions": dict(o.mode_fractions),
-        "amplitude": {k: float(v) for k, v in o.amplitude.items()},
+        "amplitude": {k: float(v) for k, v in o.half_peak_to_peak.items()},
         "stability": o.stability,
     }
 

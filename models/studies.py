@@ -12,7 +12,11 @@ one figure pair (x1 in the main text, x2 in App. B). The design values are
   resonance, bracketed by bisection, for comparison with ``rho_min`` (Eqs. (35), (43), (D.14)).
 
 Parameters are the models' preset dicts (``m1, m2`` [kg], ``c1, c2, c3`` [N/m], ``R, F`` [N],
-``Omega`` [rad/s]); amplitudes are ``max |x|`` over the period [m].
+``Omega`` [rad/s]). Amplitudes are half the peak-to-peak excursion over the period [m]
+(:attr:`hybrid.PeriodicOrbit.half_peak_to_peak`): the oscillation amplitude of the paper's
+figures and of the averaging model, independent of the static offset of the friction element.
+(``max |x|`` includes that offset, which is free for orbits that stick throughout, so a
+continuation that drifts along such a family would show a spurious peak in it.)
 
 References
 ----------
@@ -108,7 +112,7 @@ class Curve:
     omega : ndarray, shape (n,)
         Frequencies of the continued orbits [rad/s], branch after branch.
     x1, x2 : ndarray, shape (n,)
-        Amplitudes ``max |x|`` [m].
+        Amplitudes (half peak-to-peak) [m].
     stable : ndarray of bool, shape (n,)
         Orbits not unstable: Floquet-stable, or neutral (a stuck orbit: a member of a family with
         a multiplier 1, as the linear stick response is).
@@ -179,7 +183,9 @@ def _gap_reasons(
             if not touches:
                 continue
             edge = b.points[int(np.argmin(np.abs(b.p - (lo if ends[1] <= lo + 1e-12 else hi))))]
-            if b.reason == "unbounded" or (near and edge.amplitude["x1"] > UNBOUNDED_GROWTH * typical):
+            if b.reason == "unbounded" or (
+                near and edge.half_peak_to_peak["x1"] > UNBOUNDED_GROWTH * typical
+            ):
                 why = "unbounded"
         out.append((float(lo), float(hi), why))
     return out
@@ -223,7 +229,11 @@ def refine_peak(
     def state(o) -> tuple:
         return (float(o.t0), str(o.mode0), tuple(float(v) for v in o.x0))
 
-    best = (float(orbits[k].params["Omega"]), float(orbits[k].amplitude[coordinate]), state(orbits[k]))
+    best = (
+        float(orbits[k].params["Omega"]),
+        float(orbits[k].half_peak_to_peak[coordinate]),
+        state(orbits[k]),
+    )
     if k == 0 or k == len(orbits) - 1:
         return best
     om = [float(o.params["Omega"]) for o in orbits]
@@ -245,7 +255,7 @@ def refine_peak(
         if not o.converged:
             return -best[1]
         found[w] = o
-        return -float(o.amplitude[coordinate])
+        return -float(o.half_peak_to_peak[coordinate])
 
     res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": 1e-7 * hi})
     w = float(res.x)
@@ -290,8 +300,8 @@ def resonance_curve(
     for j, b in enumerate(fr.branches):
         for o in b.points:
             om.append(float(o.params["Omega"]))
-            x1.append(float(o.amplitude["x1"]))
-            x2.append(float(o.amplitude["x2"]))
+            x1.append(float(o.half_peak_to_peak["x1"]))
+            x2.append(float(o.half_peak_to_peak["x2"]))
             st.append(o.stability != "unstable")
             br.append(j)
     x1a = np.asarray(x1)
@@ -314,7 +324,7 @@ def resonance_curve(
         for b in fr.branches:
             if not b.points:
                 continue
-            amps = [o.amplitude[coord] for o in b.points]
+            amps = [o.half_peak_to_peak[coord] for o in b.points]
             k = int(np.argmax(amps))
             cand = refine_peak(system, params, b.points, k, coord, options)
             if cand[1] > best[1]:
@@ -326,14 +336,14 @@ def resonance_curve(
     return curve
 
 
-def ida_peak(
-    model: str, params: dict, omega: float, start: tuple, window_fraction: float = 2e-5
-) -> tuple[float, float]:
-    """Peak of ``x1`` by the IDA path (``rtol = 1e-10``) near ``omega``, for the cross-check.
+def ida_peak(model: str, params: dict, omega: float, start: tuple) -> tuple[float, float]:
+    """Amplitude of ``x1`` by the IDA path (``rtol = 1e-10``) at another integrator's peak.
 
-    Periodic orbits with IDA are found by Newton from ``start`` (the other integrator's orbit at
-    its peak, no transient) over ``omega (1 -/+ window_fraction)``, and the amplitude maximised by
-    bounded Brent (each orbit started from the previous one).
+    Newton (no transient) from ``start``, the other integrator's orbit at its peak frequency
+    ``omega``: the same orbit computed by the other path. At a smooth maximum this is the IDA
+    path's peak up to a term of second order in the difference of the peak frequencies; where the
+    peak is at a fold it is the same point of the branch (a search in ``Omega`` could land on the
+    other branch there).
 
     Parameters
     ----------
@@ -343,35 +353,23 @@ def ida_peak(
         Peak frequency of the other integrator [rad/s].
     start : tuple
         ``(t0, mode0, x0)`` of the other integrator's orbit at ``omega`` (:attr:`Curve.peak_start`).
-    window_fraction : float, optional
-        Relative half-width of the search [-].
 
     Returns
     -------
     omega, x1 : float
-        [rad/s], [m]; ``nan`` if Newton fails throughout.
+        [rad/s], [m]; ``x1`` is ``nan`` if Newton fails.
     """
-    system = BUILTIN[model]()
-    options = solver_options("ida")
-    guess = {"t0": start[0], "mode0": start[1], "x0": np.asarray(start[2])}
-
-    def neg(w: float) -> float:
-        o = hybrid.periodic_orbit(
-            system,
-            {**params, "Omega": w},
-            **guess,
-            transient_periods=0,
-            options=options,
-            samples_per_period=256,
-        )
-        if not o.converged:
-            return 0.0  # worse than any amplitude
-        guess.update(t0=o.t0, mode0=o.mode0, x0=o.x0)
-        return -float(o.amplitude["x1"])
-
-    lo, hi = omega * (1 - window_fraction), omega * (1 + window_fraction)
-    res = minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9 * hi})
-    return (float(res.x), float(-res.fun)) if res.fun < 0 else (math.nan, math.nan)
+    o = hybrid.periodic_orbit(
+        BUILTIN[model](),
+        {**params, "Omega": omega},
+        t0=start[0],
+        mode0=start[1],
+        x0=np.asarray(start[2]),
+        transient_periods=0,
+        options=solver_options("ida"),
+        samples_per_period=256,
+    )
+    return float(omega), float(o.half_peak_to_peak["x1"]) if o.converged else math.nan
 
 
 @dataclass(frozen=True)

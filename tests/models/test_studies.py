@@ -34,7 +34,7 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
         system, {**c.params, "Omega": c.peak_omega}, options=opts, samples_per_period=256
     )
     assert o.converged
-    assert o.amplitude["x1"] == pytest.approx(c.peak_x1, rel=1e-6)
+    assert o.half_peak_to_peak["x1"] == pytest.approx(c.peak_x1, rel=1e-6)
     # it is a maximum: a little to either side the amplitude is lower
     for dw in (-2e-5, 2e-5):
         side = hybrid.periodic_orbit(
@@ -46,7 +46,7 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
             transient_periods=0,
             options=opts,
         )
-        assert side.converged and side.amplitude["x1"] < c.peak_x1
+        assert side.converged and side.half_peak_to_peak["x1"] < c.peak_x1
     # the refined peak is at least the largest continued point
     assert c.peak_x1 >= c.x1.max()
 
