@@ -436,6 +436,7 @@ def _study_figure(key: str, coord: str) -> FigureSpec:
             f"peak_{coord}_resonance_2_m": peaks[2],
             "curves_unbounded": unbounded,
             "curves_with_a_fold": folded,
+            "unstable_orbits": int(sum(int(np.sum(~c.stable)) for c in curves.values())),
             "stick_eigenfrequencies_rad_s": list(stick_eigenfrequencies(base)),
             "slip_eigenfrequencies_rad_s": {
                 f"{st.parameter}={v:g}": list(slip_eigenfrequencies(st.model, {**base, st.parameter: v}))
@@ -502,7 +503,15 @@ def _study_verdict(st, coord, peaks, numbers, results, integrator) -> tuple[str,
         numbers["grid_minimum"] = {str(m): {st.parameter: v, "interior": i} for m, (v, i) in mins.items()}
         ratio = [b / a for a, b in zip(peaks[1], peaks[2], strict=True)]
         numbers[f"peak_ratio_resonance_2_over_1_{coord}"] = ratio
-        if st.model == "absorber":
+        if coord == "x2":  # App. B: no claim of its own beyond showing x2 for the same studies
+            claim = f"x2 (App. B) behaves as x1 in Fig. {st.figures[0]}: an optimal R at each resonance"
+            ok = mins[1][1] and mins[2][1]
+            verdict = (
+                f"{'Confirmed' if ok else 'NOT confirmed'}: peak of x2 smallest at R = {mins[1][0]:g} N "
+                f"(resonance 1) and {mins[2][0]:g} N (resonance 2) on the grid, inside the range: "
+                f"{mins[1][1]} / {mins[2][1]}; peak ratio (resonance 2/1) {min(ratio):.3f} to {max(ratio):.3f}."
+            )
+        elif st.model == "absorber":
             claim = "an optimal R exists; the second resonance's peak is lower than the first's"
             ok1 = mins[1][1]
             lower = sum(r < 1 for r in ratio)
@@ -587,7 +596,7 @@ def _comparison_figure(fig_id: str, model: str) -> FigureSpec:
                                 "source": f"averaging {branch}",
                                 "Omega": float(w),
                                 "x1": float(x),
-                                "stable": s == "stable",
+                                "stable": s != "unstable",
                             }
                         )
         axes[0].plot([], [], "b-", label="event-driven (continuation)")
