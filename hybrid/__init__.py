@@ -24,6 +24,7 @@ from ._options import SolverOptions as SolverOptions
 from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
 from ._orbit import PeriodicOrbit as PeriodicOrbit
 from ._plothints import plot_hints as plot_hints
+from ._progress import ProgressBar as ProgressBar
 from ._record import Envelope as Envelope
 from ._record import Sink as Sink
 from ._record import Tee as Tee

@@ -3,7 +3,8 @@
 Models are found by name among the installed ``hybrid.models`` entry points
 (the project's built-ins: absorber, isolator, coulomb) or given as the path of
 a model file (``.toml``). Curves drawn over a frequency-response curve come
-from the ``hybrid.frc_overlays`` entry points, by model name. Bad input is
+from the ``hybrid.frc_overlays`` entry points, by model name; installed packages
+add subcommands through the ``hybrid.commands`` entry points. Bad input is
 reported in one line on stderr with exit code 2, before any integration; a
 failed simulation or a periodic orbit not found with exit code 1; no tracebacks.
 """
@@ -41,9 +42,11 @@ from ._shooting import periodic_orbit
 from ._simulate import SimulationError, initial_state, simulate
 from ._system import HybridSystem, ModelError
 
-__all__ = ["main", "resolve_model"]
+__all__ = ["main", "resolve_model", "writable_folder"]
 
 ENTRY_POINT_GROUP = "hybrid.models"
+#: Entry points adding subcommands: ``name = "package.module:register"``, ``register(subparsers)``.
+COMMAND_GROUP = "hybrid.commands"
 #: Largest `--samples-per-period` (a period of `orbit` is held in memory; `simulate` keeps 4 of them).
 MAX_SAMPLES_PER_PERIOD = 100_000
 #: Help of `--out` (see `default_output_dir`).
@@ -299,6 +302,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("models", help="list the built-in models")
     _add_show_parser(sub)
+    # Subcommands of installed packages: `register(subparsers)` adds one and sets its `handler`.
+    for ep in entry_points(group=COMMAND_GROUP):
+        if ep.name not in COMMANDS:
+            ep.load()(sub)
     return parser
 
 
@@ -493,6 +500,17 @@ def _output_dir(system: HybridSystem, args) -> Path:
         if not args.out.strip():
             raise UsageError("`--out` needs a folder path, got an empty string")
         out = Path(args.out)
+    return writable_folder(out)
+
+
+def writable_folder(out: Path) -> Path:
+    """``out`` (the folder of ``--out``), created and checked writable before any computation.
+
+    Raises
+    ------
+    UsageError
+        It exists and is not a folder, or cannot be created or written.
+    """
     if out.exists() and not out.is_dir():
         raise UsageError(f"`--out {out}`: exists and is not a folder")
     try:
@@ -894,7 +912,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return COMMANDS[args.command](args)
+        handler = COMMANDS.get(args.command) or args.handler
+        return handler(args)
     except (UsageError, ModelError, ExpressionError, ValueError, TypeError) as exc:
         print(f"hybrid: error: {exc}", file=sys.stderr)
         return 2
