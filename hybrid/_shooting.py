@@ -522,6 +522,11 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
         return _failed(shooter, y, mode0, t0, 0, math.inf, f"guess is not consistent: {exc}")
     scale0 = _scale(y, d)
     res_norm = math.inf
+
+    def fail(why: str) -> PeriodicOrbit:
+        """The failed result at the current iterate."""
+        return _failed(shooter, y, mode0, t0, it, res_norm, why)
+
     note = ""
     family = False
     it = 0
@@ -549,7 +554,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
         if sh is coarse and not tr.success:
             return None
         if not tr.success:
-            return _failed(shooter, y, mode0, t0, it, res_norm, f"run failed at iteration {it}: {tr.message}")
+            return fail(f"run failed at iteration {it}: {tr.message}")
         r = nw.residual(tr, y)
         scale = _scale(y, d)
         res_norm = float(np.max(np.abs(r))) / scale
@@ -610,17 +615,9 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 )
             else:
                 why = "Newton's method did not converge; " + HINT
-            return _failed(
-                shooter, y, mode0, t0, it, res_norm, f"{why} ({it} iterations, residual {res_norm:.3g})"
-            )
+            return fail(f"{why} ({it} iterations, residual {res_norm:.3g})")
         if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(scale0, 1.0):
-            return _failed(
-                shooter,
-                y,
-                mode0,
-                t0,
-                it,
-                res_norm,
+            return fail(
                 "the response grows without bound: no bounded periodic orbit "
                 f"(max |x| = {scale:.3g} after {it} Newton iterations)",
             )
@@ -686,13 +683,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             continue
         if found is None:
             if res_norm <= 0.1:
-                return _failed(
-                    shooter,
-                    y,
-                    mode0,
-                    t0,
-                    it,
-                    res_norm,
+                return fail(
                     "Newton's method found no decrease of the residual along its direction (the map "
                     f"is not smooth here, or not accurate enough for the tolerance); {HINT} "
                     f"({it} iterations, residual {res_norm:.3g})",
@@ -700,13 +691,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             # Far from the orbit (a transient's guess): take the best point tried, uphill, and say so.
             found = best
             if found is None:
-                return _failed(
-                    shooter,
-                    y,
-                    mode0,
-                    t0,
-                    it,
-                    res_norm,
+                return fail(
                     f"every run along the Newton step failed ({HINT})",
                 )
             uphill += 1
