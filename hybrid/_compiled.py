@@ -161,6 +161,8 @@ class CompiledMode:
                 self._gzz_inv = np.linalg.inv(gzz)
         # d g / d t for the derivatives of slave variables.
         self.g_t = [(int(i), comp(diff(e, "t"))) for i, e in self.g_expr.items()]
+        self._ix_ad = np.ix_(self.alg_idx, self.diff_idx)  # blocks of dF/dy for the slave rates
+        self._ix_aa = np.ix_(self.alg_idx, self.alg_idx)
 
         # Guards of transitions leaving this mode.
         guards = []
@@ -279,8 +281,9 @@ class CompiledMode:
             J = self.dFdy(t, y)
             v = [t, *np.asarray(y, dtype=float).tolist()]
             gt = np.array([fn(v) for _, fn in self.g_t])
-            rhs = -(J[np.ix_(a, d)] @ yp[d] + gt)
-            yp[a] = np.linalg.solve(J[np.ix_(a, a)], rhs)
+            rhs = -(J[self._ix_ad] @ yp[d] + gt)
+            gzz = J[self._ix_aa]
+            yp[a] = rhs / gzz[0, 0] if a.size == 1 else np.linalg.solve(gzz, rhs)
         return yp
 
     def guard_values(self, t: float, y: np.ndarray) -> np.ndarray:

@@ -12,7 +12,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ._compiled import CompiledSystem
 from ._options import SolverOptions
@@ -360,6 +359,8 @@ class _Extrema:
             if not self.smooth(a):
                 continue
             t0, t1 = float(self.tr.t[a]), float(self.tr.t[a + 1])
+            from scipy.optimize import minimize_scalar  # a rare fallback: not imported at start-up
+
             try:
                 r = minimize_scalar(
                     lambda t, a=a: -sgn * self.value(name, a, t),
