@@ -70,21 +70,21 @@ def _order(res: SweepResult, x: str | None) -> tuple[int, int | None]:
     return ix, (1 - ix if len(names) == 2 else None)
 
 
-def _grid(res: SweepResult, ix: int, iy: int) -> tuple[np.ndarray, np.ndarray]:
-    """Peak and status code over the plane, shape (ny, nx).
+def _grid(res: SweepResult, ix: int, iy: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Peak and status code over the plane, shape (ny, nx) (one parameter: shape (nx,)).
 
     Codes: 0 a value, 1 unbounded, 2 no value (failed, time limit, missing, no orbit), 3 a value
     from an incomplete curve (a lower bound of the peak).
     """
     shape = res.shape
-    peak = np.full((shape[iy], shape[ix]), np.nan)
+    peak = np.full((shape[ix],) if iy is None else (shape[iy], shape[ix]), np.nan)
     code = np.full(peak.shape, 2)
     for index, r in res.points.items():
-        j, i = index[iy], index[ix]
+        at = (index[ix],) if iy is None else (index[iy], index[ix])
         if r["status"] == "unbounded":
-            code[j, i] = 1
+            code[at] = 1
         elif r.get("peak") is not None and r["status"] in ("bounded", "incomplete"):
-            peak[j, i], code[j, i] = r["peak"], 0 if r["status"] == "bounded" else 3
+            peak[at], code[at] = r["peak"], 0 if r["status"] == "bounded" else 3
     return peak, code
 
 
@@ -222,11 +222,10 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
 
     ix, iy = _order(res, x)
     ax_x = res.axes[ix]
+    peak, code = _grid(res, ix, iy)
     if iy is None:
-        peak, code = _grid_1d(res)
         series = [(None, peak, code)]
     else:
-        peak, code = _grid(res, ix, iy)
         series = [(v, peak[j], code[j]) for j, v in enumerate(res.axes[iy].values)]
     fig, ax = plt.subplots(figsize=(7.5, 5.0), layout="constrained")
     cmap = plt.get_cmap("plasma")
@@ -271,17 +270,6 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return Path(path)
-
-
-def _grid_1d(res: SweepResult) -> tuple[np.ndarray, np.ndarray]:
-    n = res.shape[0]
-    peak, code = np.full(n, np.nan), np.full(n, 2)
-    for (i,), r in res.points.items():
-        if r["status"] == "unbounded":
-            code[i] = 1
-        elif r.get("peak") is not None and r["status"] in ("bounded", "incomplete"):
-            peak[i], code[i] = r["peak"], 0 if r["status"] == "bounded" else 3
-    return peak, code
 
 
 def write_charts(res: SweepResult, out: str | Path, x: str | None = None) -> tuple[list[Path], list[str]]:

@@ -63,6 +63,20 @@ def closed_form(p: dict, omega) -> np.ndarray:
     return np.abs(p["F"] / (p["k"] - p["m"] * w**2 + 1j * p["c"] * w))
 
 
+def with_acceleration(expr: str) -> hybrid.HybridSystem:
+    """The forced oscillator with another expression of ``v'`` (a changed model)."""
+    system, _, _, _ = forced_oscillator()
+    return hybrid.HybridSystem(
+        name=system.name,
+        variables=system.variables,
+        parameters=system.parameters,
+        modes=[hybrid.Mode("free", derivatives={"x": "v", "v": expr})],
+        transitions=[],
+        period=system.period,
+        initial_mode="free",
+    )
+
+
 @pytest.fixture(scope="module")
 def oscillator():
     system, params, _, _ = forced_oscillator()
@@ -108,16 +122,9 @@ def test_model_data_round_trip_and_hash():
         assert hybrid.model_hash(again) == hybrid.model_hash(system)
         assert model_data(again) == model_data(system)
     system, _, _, _ = forced_oscillator()
-    changed = hybrid.HybridSystem(
-        name=system.name,
-        variables=system.variables,
-        parameters=system.parameters,
-        modes=[hybrid.Mode("free", derivatives={"x": "v", "v": "(F*sin(Omega*t) - c*v - k*x)/m + 0"})],
-        transitions=[],
-        period=system.period,
-        initial_mode="free",
+    assert hybrid.model_hash(with_acceleration("(F*sin(Omega*t) - c*v - k*x)/m + 0")) != hybrid.model_hash(
+        system
     )
-    assert hybrid.model_hash(changed) != hybrid.model_hash(system)
 
 
 def test_points_against_closed_form(serial, oscillator):
@@ -253,16 +260,7 @@ def test_resume_refuses_a_changed_sweep(serial, oscillator, tmp_path):
         hybrid.sweep(
             system, {**params, "F": 2.0}, axes, ref.folder, p_range=P_RANGE, options=EXACT, resume=True
         )
-    changed, _, _, _ = forced_oscillator(declare_period=True)
-    changed = hybrid.HybridSystem(
-        name=changed.name,
-        variables=changed.variables,
-        parameters=changed.parameters,
-        modes=[hybrid.Mode("free", derivatives={"x": "v", "v": "(F*sin(Omega*t) - c*v - k*x)/m - 0.001*x"})],
-        transitions=[],
-        period=changed.period,
-        initial_mode="free",
-    )
+    changed = with_acceleration("(F*sin(Omega*t) - c*v - k*x)/m - 0.001*x")
     with pytest.raises(ValueError, match=r"`model_hash` differs.*model changed"):
         hybrid.sweep(changed, params, axes, ref.folder, p_range=P_RANGE, options=EXACT, resume=True)
     # resuming a finished sweep computes nothing
