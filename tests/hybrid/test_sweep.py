@@ -397,3 +397,30 @@ def test_cli_bad_input_before_any_run(tmp_path, capsys):
     assert "already holds a sweep: add --resume" in capsys.readouterr().err
     assert main(["chart", str(tmp_path)]) == 2
     assert "holds no sweep" in capsys.readouterr().err
+
+
+def test_cli_records_a_failed_point_goes_on_and_exits_1(tmp_path, capsys):
+    toml = tmp_path / "forced.toml"
+    toml.write_text(MODEL_TOML)
+    out = tmp_path / "o"
+    args = ["sweep", str(toml), "--param", "m", "0", "1", "1", "--omega-range", "0.5", "1.5"]
+    code = main([*args, "--integrator", "exact", "--out", str(out), "--workers", "1", "--no-progress"])
+    captured = capsys.readouterr()
+    assert code == 1 and "1 points failed or ran out of time" in captured.err
+    assert "1 bounded" in captured.out and "1 failed" in captured.out
+    res = hybrid.load_sweep(out)
+    assert res.points[(0,)]["status"] == "failed" and res.points[(1,)]["status"] == "bounded"
+
+
+def test_progress_bar_shows_done_failed_and_time_left():
+    import io
+
+    from hybrid._cli_sweep import _SweepBar
+
+    bar = _SweepBar("sweep", True)
+    bar.bar.stream = io.StringIO()
+    bar(2, 0, 10)  # two points found finished: the rate comes from the points computed now
+    assert "2/10 done, 0 failed, time left: after the first point" in bar.bar.stream.getvalue()
+    bar.t0 -= 60.0  # one point computed in 60 s: 7 left take 7 min
+    bar(3, 1, 10)
+    assert "3/10 done, 1 failed, 7.0 min left" in bar.bar.stream.getvalue()
