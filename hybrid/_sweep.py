@@ -114,8 +114,14 @@ def _finite(name: str, what: str, v: float) -> float:
     return float(v)
 
 
+def _tidy(values) -> tuple[float, ...]:
+    """Values rounded to 15 significant digits (``0.3 + 3 * 0.1`` is 0.6, not 0.6000000000000001)."""
+    return tuple(float(f"{float(v):.15g}") for v in values)
+
+
 def linear_axis(name: str, start: float, stop: float, step: float) -> Axis:
-    """``start, start + step, ...`` up to ``stop`` (included if it lies on the grid to 1e-9 step).
+    """``start, start + step, ...`` up to ``stop`` (included if it lies on the grid to 1e-9 step),
+    each rounded to 15 significant digits.
 
     Parameters
     ----------
@@ -152,11 +158,12 @@ def linear_axis(name: str, start: float, stop: float, step: float) -> Axis:
         values = np.linspace(start, stop, k + 1) if k > 0 else np.array([start])
     else:
         values = start + step * np.arange(math.floor(n) + 1)
-    return Axis(name, tuple(float(v) for v in values), "linear", (start, stop, step))
+    return Axis(name, _tidy(values), "linear", (start, stop, step))
 
 
 def log_axis(name: str, start: float, stop: float, num: int) -> Axis:
-    """``num`` values from ``start`` to ``stop`` (both included), equally spaced in ``log``.
+    """``num`` values from ``start`` to ``stop`` (both included), equally spaced in ``log`` (to 15
+    significant digits).
 
     Parameters
     ----------
@@ -177,8 +184,8 @@ def log_axis(name: str, start: float, stop: float, num: int) -> Axis:
 
     Examples
     --------
-    >>> [round(v, 12) for v in log_axis("c3", 0.01, 10, 4).values]
-    [0.01, 0.1, 1.0, 10.0]
+    >>> log_axis("c3", 0.01, 10, 4).values
+    (0.01, 0.1, 1.0, 10.0)
     """
     start, stop = _finite(name, "START", start), _finite(name, "STOP", stop)
     if isinstance(num, bool) or not isinstance(num, int | np.integer) or not 2 <= num <= MAX_POINTS:
@@ -187,7 +194,7 @@ def log_axis(name: str, start: float, stop: float, num: int) -> Axis:
         raise ValueError(f"axis `{name}`: a log axis needs 0 < START < STOP, got {start!r}, {stop!r}")
     values = np.geomspace(start, stop, int(num))
     values[0], values[-1] = start, stop
-    return Axis(name, tuple(float(v) for v in values), "log", (start, stop, float(num)))
+    return Axis(name, _tidy(values), "log", (start, stop, float(num)))
 
 
 def _point_name(index: tuple[int, ...]) -> str:
