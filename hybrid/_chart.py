@@ -135,7 +135,9 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
         masked = np.ma.masked_invalid(peak)
         cs = ax.contourf(X, Y, masked, levels=levels, cmap="viridis", norm=LogNorm(lo, hi) if log else None)
         ax.contour(X, Y, masked, levels=levels[::2], colors="k", linewidths=0.4, alpha=0.5)
-        fig.colorbar(cs, ax=ax, label=f"peak of {res.manifest['coordinate']}")
+        bar = fig.colorbar(cs, ax=ax, label=f"peak of {res.manifest['coordinate']}", format="%.3g")
+        bar.set_ticks(levels[::2])
+        bar.minorticks_off()
     if (code == 1).any():
         ax.contourf(X, Y, (code == 1).astype(float), levels=[0.5, 1.5], colors="none", hatches=["///"])
         ax.scatter(X[code == 1], Y[code == 1], marker="^", color="crimson", s=18, zorder=3)
@@ -184,7 +186,8 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
             s=260,
             color="gold",
             edgecolor="k",
-            zorder=4,
+            zorder=5,
+            clip_on=False,
             label=f"lowest peak {best['peak']:.4g} at {ax_x.name}={bx:.4g}, {ax_y.name}={by:.4g}",
         )
         handles.append(h)
@@ -258,6 +261,8 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
             ms=16,
             color="gold",
             mec="k",
+            clip_on=False,
+            zorder=5,
             label=f"lowest peak {best['peak']:.4g}",
         )
     if ax_x.spacing == "log":
