@@ -8,6 +8,8 @@ peak, where it lies and its stability), written as ``chart.csv``; the figures dr
   without a value (failed, time limit, missing) crossed out.
 * :func:`plot_lines`: the peak over one parameter, one line per value of the other (if any);
   unbounded points drawn as triangles at the top of the axes.
+
+Peaks spanning more than a factor :data:`LOG_SPAN` are drawn on a log scale.
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ from ._io import to_json, write_rows_csv
 from ._sweep import SweepResult
 
 __all__ = ["chart_rows", "optimum", "plot_plane", "plot_lines", "write_charts"]
+
+#: Peaks spanning more than this factor are drawn on a log scale (colours of the plane, y of the lines).
+LOG_SPAN = 20.0
 
 
 def optimum(res: SweepResult) -> dict | None:
@@ -130,7 +135,7 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     finite = peak[np.isfinite(peak)]
     if finite.size >= 2 and finite.max() > finite.min():
         lo, hi = float(finite.min()), float(finite.max())
-        log = lo > 0 and hi / lo > 20
+        log = lo > 0 and hi > LOG_SPAN * lo
         levels = np.geomspace(lo, hi, 15) if log else np.linspace(lo, hi, 15)
         masked = np.ma.masked_invalid(peak)
         cs = ax.contourf(X, Y, masked, levels=levels, cmap="viridis", norm=LogNorm(lo, hi) if log else None)
@@ -267,6 +272,13 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
         )
     if ax_x.spacing == "log":
         ax.set_xscale("log")
+    finite = peak[np.isfinite(peak)]
+    if finite.size and finite.min() > 0 and finite.max() > LOG_SPAN * finite.min():
+        from matplotlib.ticker import FormatStrFormatter
+
+        ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+        ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
     ax.set_xlabel(ax_x.name)
     ax.set_ylabel(f"peak of {res.manifest['coordinate']}")
     ax.set_title(_title(res), fontsize=9)
