@@ -7,7 +7,8 @@ resonance's window (0.80-0.90 rad/s; ``--full-range`` for the default range of b
 [0.1, 10] N/m. Each configuration runs :func:`hybrid.sweep` into its own temporary folder; the
 results of the three runs are checked equal (the same computation wherever it runs). Printed:
 wall times, the speed-ups against 1 worker (from this one run, so that they compare like with
-like), and the machine's load (``uptime``) before and after, since other jobs may share the cores.
+like), the cores each run actually got (the points' CPU time over the wall time), and the machine's
+load (``uptime``) before and after, since other jobs may share the cores.
 
 Run: ``python benchmarks/sweep.py`` (``--n-r 6 --n-c3 3`` by default; ``--no-dask`` without the
 cluster; the Dask run needs the ``dask`` extra).
@@ -57,7 +58,9 @@ def main() -> None:
     p_range = None if args.full_range else (0.80, 0.90)
     n = len(axes[0].values) * len(axes[1].values)
     window = "default range" if p_range is None else f"Omega in {p_range}"
-    print(f"absorber, exact integrator, {window}: R ({len(axes[0].values)}) x c3 ({len(axes[1].values)}) = {n} points")
+    print(
+        f"absorber, exact integrator, {window}: R ({len(axes[0].values)}) x c3 ({len(axes[1].values)}) = {n} points"
+    )
     print(f"load before: {uptime()}")
     times, results = {}, {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -70,23 +73,31 @@ def main() -> None:
 
             with (
                 LocalCluster(
-                    n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None
+                    n_workers=2,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address=None,
                 ) as cluster,
                 Client(cluster) as client,
             ):
                 times["dask 2 workers"], results["dask"] = run(client, axes, f"{tmp}/dask", p_range)
-            print(f"  Dask LocalCluster, 2 workers: {times['dask 2 workers']:.1f} s (cluster start not counted)")
+            print(
+                f"  Dask LocalCluster, 2 workers: {times['dask 2 workers']:.1f} s (cluster start not counted)"
+            )
     print(f"load after: {uptime()}")
     ref = results[1].points
     for key, res in results.items():
         same = all(res.points[k]["curve"] == r["curve"] for k, r in ref.items())
         print(f"  results of {key!r} equal to 1 worker's: {same}")
     t1 = times["1 worker(s)"]
-    for key, t in times.items():
-        print(f"speed-up {key}: {t1 / t:.2f}x")
-    best = min(
-        (r for r in ref.values() if r["status"] == "bounded"), key=lambda r: r["peak"], default=None
-    )
+    for (key, t), res in zip(times.items(), results.values(), strict=True):
+        cpu = sum(r["cpu_seconds"] for r in res.points.values())
+        print(
+            f"speed-up {key}: {t1 / t:.2f}x   (CPU of the points {cpu:.1f} s / wall {t:.1f} s = {cpu / t:.2f} "
+            "cores used: below the worker count when other jobs share the cores)"
+        )
+    best = min((r for r in ref.values() if r["status"] == "bounded"), key=lambda r: r["peak"], default=None)
     if best is not None:
         print(f"lowest bounded peak of x1: {best['peak']:.6g} m at {best['values']}")
 

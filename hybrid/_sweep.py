@@ -350,9 +350,10 @@ def run_point(
         amplitude of ``coordinate`` [its unit], None if no orbit), ``peak_at`` (the forcing
         frequency there [rad/s]), ``peak_stability``, ``gaps`` and ``unbounded`` (intervals
         [rad/s]), ``branches``, ``curve`` (every orbit: frequency, amplitude, stability, branch),
-        ``warnings``, ``seconds`` (wall time), ``pid`` and ``host``.
+        ``warnings``, ``seconds`` (wall time), ``cpu_seconds`` (CPU time of the worker), ``pid`` and
+        ``host``.
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -365,7 +366,8 @@ def run_point(
             where = f" (at {tb[-1].filename}:{tb[-1].lineno})" if tb else ""
             out = {"status": "failed", "reason": f"{type(exc).__name__}: {exc}{where}", "peak": None}
     out["warnings"] = sorted({str(w.message) for w in caught})
-    out.update(seconds=time.perf_counter() - t0, pid=os.getpid(), host=socket.gethostname())
+    out.update(seconds=time.perf_counter() - t0, cpu_seconds=time.process_time() - c0)
+    out.update(pid=os.getpid(), host=socket.gethostname())
     return out
 
 
