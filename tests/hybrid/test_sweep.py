@@ -424,3 +424,47 @@ def test_progress_bar_shows_done_failed_and_time_left():
     bar.t0 -= 60.0  # one point computed in 60 s: 7 left take 7 min
     bar(3, 1, 10)
     assert "3/10 done, 1 failed, 7.0 min left" in bar.bar.stream.getvalue()
+
+
+def test_chart_of_a_plane_with_unbounded_points(oscillator, tmp_path):
+    system, params = oscillator
+    axes = [hybrid.linear_axis("c", 0.0, 0.1, 0.1), hybrid.linear_axis("k", 0.8, 1.2, 0.4)]
+    res = hybrid.sweep(system, params, axes, tmp_path / "s", p_range=P_RANGE, options=EXACT)
+    files, lines = write_charts(res, tmp_path)
+    summary = json.loads((tmp_path / "chart.json").read_text())
+    # c = 0 is undamped: unbounded at its resonance sqrt(k/m), inside the range for both k
+    assert sorted(v["k"] for v in summary["unbounded"]) == [0.8, 1.2]
+    assert all(v["c"] == 0.0 for v in summary["unbounded"])
+    assert summary["counts"]["unbounded"] == 2 and summary["counts"]["bounded"] == 2
+    assert summary["optimum"]["values"]["c"] == 0.1
+    assert "unbounded response at 2 points" in lines
+    assert (tmp_path / "chart_plane.png").stat().st_size > 0
+
+
+class _LosingExecutor:
+    """Runs points in this process, but 'loses' the first (as a pool whose worker died would)."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+
+        fut = Future()
+        self.calls += 1
+        if self.calls == 1:
+            fut.set_exception(RuntimeError("worker process died"))
+        else:
+            fut.set_result(fn(*args))
+        return fut
+
+
+def test_points_lost_by_the_executor_have_no_file_and_are_computed_on_resume(oscillator, tmp_path):
+    system, params = oscillator
+    axes = [hybrid.linear_axis("c", 0.1, 0.2, 0.1)]
+    kw = {"p_range": P_RANGE, "options": EXACT}
+    res = hybrid.sweep(system, params, axes, tmp_path, executor=_LosingExecutor(), **kw)
+    assert res.lost == [((0,), "RuntimeError: worker process died")] and not res.complete
+    assert not (tmp_path / "point-0000.json").exists() and (tmp_path / "point-0001.json").exists()
+    res = hybrid.sweep(system, params, axes, tmp_path, resume=True, **kw)
+    assert res.computed == [(0,)] and res.reused == [(1,)] and res.complete
