@@ -32,6 +32,7 @@ import time
 import traceback
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field, fields, is_dataclass
 from itertools import product
 from pathlib import Path
@@ -358,7 +359,7 @@ def run_point(
         warnings.simplefilter("always")
         try:
             system = _system(data, digest)
-            with time_limit(seconds) if seconds is not None else _nothing():
+            with time_limit(seconds) if seconds is not None else nullcontext():
                 fr = frequency_response(system, params, p_range, options=options, settings=settings)
             out = _curve_summary(fr, coordinate)
         except Exception as exc:  # recorded as the point's result: the sweep goes on
@@ -369,14 +370,6 @@ def run_point(
     out.update(seconds=time.perf_counter() - t0, cpu_seconds=time.process_time() - c0)
     out.update(pid=os.getpid(), host=socket.gethostname())
     return out
-
-
-class _nothing:
-    def __enter__(self):
-        return None
-
-    def __exit__(self, *exc):
-        return False
 
 
 # ----------------------------------------------------------------------------------------------
@@ -653,6 +646,11 @@ def sweep(
                 + "; its results would not be comparable: start a new sweep in another folder"
             )
         started = old.get("started")
+    elif any(folder.glob("point-*.json")):
+        raise ValueError(
+            f"{str(folder)!r} holds point files but no {MANIFEST}: their grid and model are unknown; "
+            "choose another folder"
+        )
     else:
         started = time.time()
     manifest["started"] = started

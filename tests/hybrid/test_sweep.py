@@ -468,3 +468,10 @@ def test_points_lost_by_the_executor_have_no_file_and_are_computed_on_resume(osc
     assert not (tmp_path / "point-0000.json").exists() and (tmp_path / "point-0001.json").exists()
     res = hybrid.sweep(system, params, axes, tmp_path, resume=True, **kw)
     assert res.computed == [(0,)] and res.reused == [(1,)] and res.complete
+
+
+def test_point_files_without_a_manifest_are_refused(oscillator, tmp_path):
+    system, params = oscillator
+    (tmp_path / "point-0000.json").write_text("{}")
+    with pytest.raises(ValueError, match="point files but no manifest.json"):
+        hybrid.sweep(system, params, [hybrid.linear_axis("c", 0.1, 0.1, 1.0)], tmp_path, resume=True)
