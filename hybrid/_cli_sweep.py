@@ -32,7 +32,7 @@ from .cli import (
     writable_folder,
 )
 
-__all__ = ["add_parsers", "cmd_sweep", "cmd_chart", "dask_client"]
+__all__ = ["add_parsers", "cmd_sweep", "cmd_chart", "dask_client", "die_with_parent"]
 
 
 class _AxisAction(argparse.Action):
@@ -185,6 +185,24 @@ def dask_client(address: str):
         raise UsageError(f"`--scheduler {address}`: cannot connect: {exc}") from None
 
 
+def die_with_parent() -> None:
+    """Ask the kernel to end this (worker) process when its parent dies (Linux; elsewhere nothing).
+
+    A worker of a ``ProcessPoolExecutor`` whose parent was killed outright (SIGKILL) would otherwise
+    wait on its task queue for ever; finished points are on disk, and ``--resume`` goes on.
+    """
+    import ctypes
+    import signal
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: workers may outlive a killed parent
+        pass
+    if os.getppid() == 1:  # the parent died before the call
+        os._exit(1)
+
+
 class _SweepBar:
     """``progress(done, failed, total)`` drawn as a bar with the points failed and the time left."""
 
@@ -237,7 +255,7 @@ def cmd_sweep(args) -> int:
         where = f"Dask scheduler {args.scheduler}"
     else:
         workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-        executor = ProcessPoolExecutor(max_workers=workers)
+        executor = ProcessPoolExecutor(max_workers=workers, initializer=die_with_parent)
         where = f"{workers} worker processes"
     _info(f"running on {where}; each point written to {out} as it finishes")
     bar = _SweepBar(f"sweep {system.name}", args.progress)

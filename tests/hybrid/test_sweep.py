@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -268,6 +269,23 @@ def test_resume_refuses_a_changed_sweep(serial, oscillator, tmp_path):
     assert res.computed == [] and sorted(res.reused) == sorted(ref.points) and res.points == ref.points
 
 
+def children(pid: int) -> list[int]:
+    """Child processes of ``pid`` (Linux /proc)."""
+    out = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        out += [int(c) for c in (task / "children").read_text().split()]
+    return out
+
+
+def alive(pid: int) -> bool:
+    """``pid`` exists and is not a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads child processes from Linux /proc")
 def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
     """Kill a running ``hybrid sweep`` with SIGKILL once a point is written; --resume finishes it."""
     toml = tmp_path / "forced.toml"
@@ -302,7 +320,14 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
         t_end = time.monotonic() + 120
         while not list(out.glob("point-*.json")) and proc.poll() is None and time.monotonic() < t_end:
             time.sleep(0.005)
+        workers = children(proc.pid)
         os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        # its worker process dies with it (PR_SET_PDEATHSIG, hybrid._cli_sweep.die_with_parent)
+        t_end = time.monotonic() + 30
+        while any(alive(w) for w in workers) and time.monotonic() < t_end:
+            time.sleep(0.01)
+        assert workers and not any(alive(w) for w in workers)
     finally:
         try:
             os.killpg(proc.pid, signal.SIGKILL)  # its worker process too
