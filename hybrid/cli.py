@@ -310,6 +310,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("models", help="list the built-in models")
     _add_show_parser(sub)
+    from ._cli_sweep import add_parsers  # here: it imports this module's helpers
+
+    add_parsers(sub)  # `sweep` and `chart`
     # Subcommands of installed packages: `register(subparsers)` adds one and sets its `handler`.
     for ep in entry_points(group=COMMAND_GROUP):
         if ep.name not in COMMANDS:

@@ -7,12 +7,14 @@ import pytest
 import hybrid._linear
 import hybrid._plothints
 import hybrid._simulate
+import hybrid._sweep
 import hybrid._system
 import hybrid_models.averaging
 import hybrid_models.overlays
 
 MODULES = [
     hybrid._simulate,
+    hybrid._sweep,
     hybrid._system,
     hybrid._linear,
     hybrid._plothints,
