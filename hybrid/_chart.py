@@ -140,7 +140,9 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
         masked = np.ma.masked_invalid(peak)
         cs = ax.contourf(X, Y, masked, levels=levels, cmap="viridis", norm=LogNorm(lo, hi) if log else None)
         ax.contour(X, Y, masked, levels=levels[::2], colors="k", linewidths=0.4, alpha=0.5)
-        bar = fig.colorbar(cs, ax=ax, label=f"peak of {res.manifest['coordinate']}", format="%.3g")
+        bar = fig.colorbar(
+            cs, ax=ax, label=_label(res, res.manifest["coordinate"], "peak of "), format="%.3g"
+        )
         bar.set_ticks(levels[::2])
         bar.minorticks_off()
     if (code == 1).any():
@@ -199,14 +201,20 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     for a, setx in ((ax_x, ax.set_xscale), (ax_y, ax.set_yscale)):
         if a.spacing == "log":
             setx("log")
-    ax.set_xlabel(ax_x.name)
-    ax.set_ylabel(ax_y.name)
+    ax.set_xlabel(_label(res, ax_x.name))
+    ax.set_ylabel(_label(res, ax_y.name))
     ax.set_title(_title(res), fontsize=9)
     if handles:
         ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1)
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return Path(path)
+
+
+def _label(res: SweepResult, name: str, prefix: str = "") -> str:
+    """``prefix name [unit]`` (the unit from the manifest, where the sweep recorded one)."""
+    unit = res.manifest.get("units", {}).get(name)
+    return f"{prefix}{name} [{unit}]" if unit else f"{prefix}{name}"
 
 
 def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path:
@@ -279,8 +287,8 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
         ax.set_yscale("log")
         ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
         ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
-    ax.set_xlabel(ax_x.name)
-    ax.set_ylabel(f"peak of {res.manifest['coordinate']}")
+    ax.set_xlabel(_label(res, ax_x.name))
+    ax.set_ylabel(_label(res, res.manifest["coordinate"], "peak of "))
     ax.set_title(_title(res), fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2 if len(series) > 6 else 1)

@@ -624,6 +624,11 @@ def sweep(
         "options": _options_dict(options),
         "settings": _options_dict(settings),
         "point_time_limit": point_time_limit,
+        # units of the swept parameters and of the coordinate, for the charts' labels
+        "units": {
+            **{q.name: q.unit for q in system.parameters if q.name in {a.name for a in axes} and q.unit},
+            **{v.name: v.unit for v in system.variables if v.name == coordinate and v.unit},
+        },
     }
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
