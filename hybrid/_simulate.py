@@ -582,6 +582,9 @@ class _Run:
                     fire = g
                     break
             if fire is None:
+                halt = self.cs.system.mode(cm.name).halt
+                if halt:
+                    raise _Stop(Status.HALTED, f"halted at t={t!r} in mode `{cm.name}`: {halt}")
                 if not np.all(np.isfinite(y)):
                     raise _Stop(
                         Status.SOLVER_FAILED, f"state became non-finite at t={t!r} in mode `{cm.name}`"
