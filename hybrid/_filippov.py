@@ -48,6 +48,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from ._expr import (
+    ONE,
+    ZERO,
     Expr,
     add,
     diff,
@@ -235,7 +237,9 @@ class _Builder:
     def _mode_name(self, base: str, pattern) -> str:
         name = f"{base}_" + "".join(_SIDE[p] for p in pattern)
         if name in self.user_modes - {base}:
-            raise ModelError(f"{self.pre}: the mode `{name}` derived from `{base}` is already a mode of the model")
+            raise ModelError(
+                f"{self.pre}: the mode `{name}` derived from `{base}` is already a mode of the model"
+            )
         return name
 
     def keep(self, m: Mode) -> None:
@@ -259,7 +263,9 @@ class _Builder:
         for i, h in enumerate(keys):
             shown = to_string(h, 80)
             if sign_arguments(h):
-                raise ModelError(f"{pre}: the surface of sign({shown}) contains sign() itself; h must be smooth")
+                raise ModelError(
+                    f"{pre}: the surface of sign({shown}) contains sign() itself; h must be smooth"
+                )
             bad = (h.free & set(md["algebraic"])) | (h.free & quads)
             if bad:
                 raise ModelError(
@@ -304,9 +310,9 @@ class _Builder:
             """dh_i/dt with the signs of ``pattern`` (0 at place i: sign_i symbolic)."""
             return _subst(rates[i], values(pattern))
 
-        def make(name, pattern, halt=""):
+        def make(name, pattern, halt="", frozen=False):
             mp = nodemap(pattern)
-            derivs = {n: replace_nodes(e, mp) for n, e in md["derivatives"].items()}
+            derivs = {n: (ZERO if frozen else replace_nodes(e, mp)) for n, e in md["derivatives"].items()}
             alg = dict(md["algebraic"])
             for i, lam in enumerate(self.lams):
                 if i >= s:
@@ -351,25 +357,26 @@ class _Builder:
                 a_plus, a_minus = rate(i, p), rate(i, flip)
                 orientation = diff(rate(i, sp), lam)
                 shown = to_string(h, 80)
-                if orientation.free - set(self.raw.parameter_names):
-                    xname = self._mode_name(m.name, sp) + "r"
-                    make(
-                        xname,
-                        sp,
-                        halt=f"repulsive sliding on the surface {shown} = 0 of mode `{m.name}`: both vector fields "
-                        "point away from it, Filippov's solution is not unique here",
-                    )
-                    derived[i].append(xname)
-                    self._add(sname, xname, orientation, 1, f"{lam}:repel")
-                    self._add(xname, minus, a_plus, -1, f"{lam}:cross-")
-                    self._add(xname, plus, a_minus, 1, f"{lam}:cross+")
+                xname = self._mode_name(m.name, sp) + "r"
+                make(
+                    xname,
+                    sp,
+                    halt=f"repulsive sliding on the surface {shown} = 0 of mode `{m.name}`: both vector fields "
+                    "point away from it, Filippov's solution is not unique here",
+                )
+                derived[i].append(xname)
+                self._add(sname, xname, orientation, 1, f"{lam}:repel")
+                self._add(xname, minus, a_plus, -1, f"{lam}:cross-")
+                self._add(xname, plus, a_minus, 1, f"{lam}:cross+")
                 self._add(sname, plus, a_plus, 1, f"{lam}:exit+")
                 self._add(sname, minus, a_minus, -1, f"{lam}:exit-")
                 for j in range(s):
                     if j != i:
                         yname = f"{sname}_meet{j + 1}"
                         if yname in self.user_modes:
-                            raise ModelError(f"{pre}: the derived mode `{yname}` is already a mode of the model")
+                            raise ModelError(
+                                f"{pre}: the derived mode `{yname}` is already a mode of the model"
+                            )
                         make(
                             yname,
                             sp,
@@ -379,8 +386,9 @@ class _Builder:
                         )
                         derived[i].append(yname)
                         self._add(sname, yname, keys[j], -p[j], f"{lams[j]}:meet")
-        # Entry: the mode's own name decides the side of each surface in turn, from the state (or,
-        # on a surface, from the Taylor series of h along the field of its + side).
+        # Entry: the mode's own name decides the side of each surface in turn from the state, with
+        # the flow frozen (so a state on a surface has no side: it goes to the sliding mode, whose
+        # guards classify it by Filippov's rules: sliding, exit, crossing or repulsion).
         for k in range(s - 1, -1, -1):
             for prefix in itertools.product((1, -1), repeat=k):
                 dname = m.name if k == 0 else self._mode_name(m.name, prefix) + "x" * (s - k)
@@ -388,18 +396,24 @@ class _Builder:
                 make(
                     dname,
                     prefix + rest,
-                    halt=f"the state lies on the surface {to_string(keys[k], 80)} = 0 of mode `{m.name}` and "
-                    "the vector field is tangent to it to every order computed: its side cannot be decided",
+                    halt=f"entry of mode `{m.name}`: the side of each surface is decided from the state",
+                    frozen=True,
                 )
+                derived[k].append(dname)
 
                 def after(q, k=k, prefix=prefix):
+                    # On a surface (q = 0): its sliding mode if it is the last to decide and can
+                    # slide; otherwise the + side, whose guards decide from its flow's series.
+                    if q == 0 and (k < s - 1 or not slides[k]):
+                        q = 1
                     full = prefix + (q,)
                     if len(full) == s:
-                        return names[full]
+                        return names[full] if q else self._mode_name(m.name, full)
                     return self._mode_name(m.name, full) + "x" * (s - k - 1)
 
                 self._add(dname, after(1), keys[k], 1, f"{lams[k]}:side+")
                 self._add(dname, after(-1), keys[k], -1, f"{lams[k]}:side-")
+                self._add(dname, after(0), ONE, 1, f"{lams[k]}:on")
         self.copies[m.name] = copies
         self.entry[m.name] = m.name
         for i in range(s):

@@ -515,7 +515,9 @@ class HybridSystem:
             md = mode_data[tr.source]
             known = base_known | set(md["defs"])
             g = md["expand"](parse(tr.guard, known, f"{pre}: guard of transition `{tr.name}`"))
-            if not (free_symbols(g) - set(pnames)):
+            # A guard built by a front end (an Expr, not text) may be constant: it is then a test
+            # at entry to its mode (e.g. a Filippov sliding mode's orientation), never a crossing.
+            if isinstance(tr.guard, str) and not (free_symbols(g) - set(pnames)):
                 raise ModelError(
                     f"{pre}: guard of transition `{tr.name}` ({tr.guard!r}) depends on no variable and not on t: "
                     "it can never cross zero"

@@ -32,6 +32,7 @@ from ._io import (
     write_rows_csv,
     write_trajectory_csv,
 )
+from ._filippov import surfaces
 from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit
@@ -864,6 +865,15 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
         differential = [v for v in system.variable_names if v not in m.algebraic]
         rows.append((m.name, ", ".join(differential), ", ".join(m.algebraic) or "-"))
     lines += _table(("mode", "differential", "slave (algebraic)"), rows)
+    found = surfaces(system)
+    if found:
+        lines.append("")
+        lines.append("discontinuity surfaces h = 0 of sign(h) (Filippov's convention, docs/filippov.md):")
+        rows = [
+            (s.h, s.mode, s.coefficient, "sliding" if s.slides else "crossing only", ", ".join(s.modes))
+            for s in found
+        ]
+        lines += _table(("h", "in mode", "sign(h) is", "on h = 0", "derived modes"), rows)
     lines.append("")
     lines.append("transitions:")
     arrow = {1: "rising", -1: "falling", 0: "either"}
