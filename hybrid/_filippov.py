@@ -260,7 +260,7 @@ class _Builder:
         lams = self.lams[:s]
         quads = set(self.raw.quadratures)
         diffvars = set(md["derivatives"])
-        for i, h in enumerate(keys):
+        for h in keys:
             shown = to_string(h, 80)
             if sign_arguments(h):
                 raise ModelError(

@@ -24,6 +24,7 @@ import numpy as np
 
 from ._budget import time_limit
 from ._expr import ExpressionError
+from ._filippov import surfaces
 from ._io import (
     EventsCSVWriter,
     TrajectoryCSVWriter,
@@ -32,7 +33,6 @@ from ._io import (
     write_rows_csv,
     write_trajectory_csv,
 )
-from ._filippov import surfaces
 from ._loader import describe_model_file, draw_model_file, load_system
 from ._options import INTEGRATORS, SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit
