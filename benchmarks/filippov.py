@@ -33,10 +33,10 @@ RATIOS = (0.05, 0.2, 0.4, 0.6)
 REPEAT = 3
 
 
-def floquet(o):
-    return np.sort_complex(
-        np.array([m for m, k in zip(o.multipliers, o.multiplier_kinds, strict=True) if k == "floquet"])
-    )
+def multipliers(o):
+    """The multipliers other than the structural zeros (the sign() model's slave ``sign_1``)."""
+    mu = [m for m, k in zip(o.multipliers, o.multiplier_kinds, strict=True) if k != "structural"]
+    return np.sort_complex(np.array(mu))
 
 
 def coulomb_study(options, label):
