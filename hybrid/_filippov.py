@@ -28,13 +28,17 @@ mode ``M`` with surfaces ``h_1 ... h_s``:
   is therefore a *chained* switch region -> sliding -> region at one instant (docs/engine.md),
   whose saltation matrix is the classical ``I + (f+ - f-) h_y / (h_t + h_y f-)``; entering a
   sliding mode gives ``h_y Xi = 0`` (a zero Floquet multiplier); leaving it at a tangency,
-  ``Xi = I``. A state that enters a sliding mode off the surface (``|h_i|`` beyond the noise
-  level) passes on to the region it lies in;
+  ``Xi = I``;
 * *halt* modes (:attr:`hybrid.Mode.halt`) that end the run with a message: repulsive sliding
-  (where ``d(dh_i/dt)/d sign_i`` depends on the state and turns positive; a crossing with that
-  orientation passes through) and the meeting of two surfaces while sliding on one.
-  A surface whose ``dh/dt`` does not depend on ``sign(h)`` cannot slide: it gets direct crossing
-  transitions between its regions.
+  (where the orientation ``d(dh_i/dt)/d sign_i = (a+ - a-)/2`` is positive on the surface; a
+  crossing with that orientation passes through) and the meeting of two surfaces while sliding
+  on one;
+* the *entry* ``M`` itself (initial mode, target of transitions into ``M``): with the flow frozen,
+  it sends the state to the region it lies in, or, on a surface, to the sliding mode, whose
+  guards classify it (sliding, exit, crossing or repulsion).
+
+A surface whose ``dh/dt`` does not depend on ``sign(h)`` cannot slide: it gets direct crossing
+transitions between its regions. docs/filippov.md has the whole picture and the limits.
 
 Every ``sign_i`` is a slave variable in every mode (``sign_i = +-1`` in the regions), so it is
 recorded along trajectories (it is the set-valued ``sign(h_i)``, e.g. the friction force over its
@@ -168,10 +172,12 @@ def filippov_system(**kwargs) -> HybridSystem:
     ...     name="relay", variables=["x", "v"], parameters=["k", "R"],
     ...     modes=[Mode("m", derivatives={"x": "v", "v": "-k*x - R*sign(v)"})], transitions=[])
     >>> sys_.mode_names
-    ('m_+', 'm_-', 'm_0')
+    ('m_+', 'm_-', 'm_0', 'm_0r', 'm')
     >>> [s.h for s in surfaces(sys_)]
     ['v']
     """
+    if not _mentions_sign(kwargs):
+        return HybridSystem(**kwargs)  # no sign() anywhere: parsed once
     raw = _Parsed(**kwargs)
     pre = f"model `{raw.name}`"
     params = set(raw.parameter_names)
@@ -435,6 +441,18 @@ class _Builder:
                 reset = {n: replace_nodes(e, mp) if mp else e for n, e in td["reset"].items()}
                 target = self.entry.get(tr.target, tr.target)
                 self.transitions.append(Transition(src, target, guard, tr.direction, tr.name, reset))
+
+
+def _mentions_sign(kwargs: Mapping) -> bool:
+    """Whether any equation or definition could call ``sign`` (a text containing it, or a tree)."""
+    texts = [kwargs.get("equations") or {}, kwargs.get("definitions") or {}]
+    for m in kwargs.get("modes") or ():
+        texts += [getattr(m, "derivatives", {}), getattr(m, "algebraic", {}), getattr(m, "definitions", {})]
+    for table in texts:
+        values = table.values() if isinstance(table, Mapping) else ()
+        if any(not isinstance(v, str) or "sign" in v for v in values):
+            return True
+    return False
 
 
 def _sign_nodes(e: Expr) -> list[Expr]:
