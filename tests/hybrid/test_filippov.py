@@ -415,3 +415,41 @@ def test_hybrid_show_lists_surfaces_and_derived_modes(capsys):
     out = capsys.readouterr().out
     assert "discontinuity surfaces" in out
     assert "motion_+, motion_-, motion_0, motion" in out
+
+
+def test_transitions_of_the_model_are_copied_to_the_derived_modes():
+    """A Filippov mode beside an ordinary one: the model's own transitions leave every derived
+    mode of their source, and enter the Filippov mode through its entry (the side decided from
+    the state). x' = -sign(x) reaches x = 0 at t = x0 and stays there (sliding); y is a clock,
+    reset to 0 on release."""
+    s = filippov_system(
+        name="mixed",
+        variables=["x", "y"],
+        parameters=[],
+        modes=[
+            Mode("slide", derivatives={"x": "-sign(x)", "y": "1"}),
+            Mode("rest", derivatives={"x": "0", "y": "1"}),
+        ],
+        transitions=[
+            hybrid.Transition("slide", "rest", "y - 2", 1, "hold"),
+            hybrid.Transition("rest", "slide", "y - 3", 1, "release", {"x": "1 - 2*x", "y": "0"}),
+        ],
+        initial_mode="slide",
+    )
+    assert {t.source for t in s.transitions if t.name == "hold"} == {"slide_+", "slide_-", "slide_0"}
+    assert [t.target for t in s.transitions if t.name == "release"] == ["slide"]
+    for options in (IDA, EXACT):
+        tr = simulate(s, {}, (0.0, 5.5), {"x": 0.5, "y": 0.0}, options=options)
+        assert tr.status == Status.COMPLETED
+        moves = [(e.source, e.target, e.guard) for e in tr.events if not e.chained]
+        assert moves == [
+            ("slide_+", "slide_0", "sign_1:reach"),
+            ("slide_0", "rest", "hold"),
+            ("rest", "slide", "release"),
+            ("slide_+", "slide_0", "sign_1:reach"),
+            ("slide_0", "rest", "hold"),
+        ]
+        times = [e.t for e in tr.events if not e.chained]
+        assert np.allclose(times, [0.5, 2.0, 3.0, 4.0, 5.0], rtol=0, atol=1e-9)
+        assert np.all(tr["sign_1"][tr.mode == "rest"] == 0.0)  # not a Filippov mode: the slot is 0
+        assert tr.final("x") == pytest.approx(0.0, abs=1e-12)
