@@ -32,7 +32,8 @@ mode ``M`` with surfaces ``h_1 ... h_s``:
 * *halt* modes (:attr:`hybrid.Mode.halt`) that end the run with a message: repulsive sliding
   (where the orientation ``d(dh_i/dt)/d sign_i = (a+ - a-)/2`` is positive on the surface; a
   crossing with that orientation passes through) and the meeting of two surfaces while sliding
-  on one;
+  on one (passed at once where the sliding field crosses the second surface; a halt where it
+  would slide on both);
 * the *entry* ``M`` itself (initial mode, target of transitions into ``M``): with the flow frozen,
   it sends the state to the region it lies in, or, on a surface, to the sliding mode, whose
   guards classify it (sliding, exit, crossing or repulsion).
@@ -376,6 +377,9 @@ class _Builder:
                 self._add(xname, plus, a_minus, 1, f"{lam}:cross+")
                 self._add(sname, plus, a_plus, 1, f"{lam}:exit+")
                 self._add(sname, minus, a_minus, -1, f"{lam}:exit-")
+                # Sliding on surface i, the state reaches surface j: it crosses it (to the sliding
+                # mode with sign_j flipped) if the sliding field there leaves surface j on the other
+                # side; otherwise it would slide on both (the intersection): a halt.
                 for j in range(s):
                     if j != i:
                         yname = f"{sname}_meet{j + 1}"
@@ -383,15 +387,18 @@ class _Builder:
                             raise ModelError(
                                 f"{pre}: the derived mode `{yname}` is already a mode of the model"
                             )
+                        q = -p[j]
+                        spf = tuple(q if n == j else v for n, v in enumerate(sp))
                         make(
                             yname,
-                            sp,
+                            spf,
                             halt=f"the surfaces {shown} = 0 and {to_string(keys[j], 80)} = 0 of mode "
-                            f"`{m.name}` intersect here (sliding on the first reached the second); "
-                            "intersections of surfaces are not handled",
+                            f"`{m.name}` intersect here: sliding on the first, the state reached the second, "
+                            "and the vector fields do not carry it across (sliding on both is not derived)",
                         )
                         derived[i].append(yname)
-                        self._add(sname, yname, keys[j], -p[j], f"{lams[j]}:meet")
+                        self._add(sname, yname, keys[j], q, f"{lams[j]}:meet")
+                        self._add(yname, self._mode_name(m.name, spf), rate(j, spf), q, f"{lams[j]}:cross")
         # Entry: the mode's own name decides the side of each surface in turn from the state, with
         # the flow frozen (so a state on a surface has no side: it goes to the sliding mode, whose
         # guards classify it by Filippov's rules: sliding, exit, crossing or repulsion).

@@ -453,3 +453,51 @@ def test_transitions_of_the_model_are_copied_to_the_derived_modes():
         assert np.allclose(times, [0.5, 2.0, 3.0, 4.0, 5.0], rtol=0, atol=1e-9)
         assert np.all(tr["sign_1"][tr.mode == "rest"] == 0.0)  # not a Filippov mode: the slot is 0
         assert tr.final("x") == pytest.approx(0.0, abs=1e-12)
+
+
+def test_two_surfaces_crossing_one_while_sliding_on_the_other(coulomb):
+    """Two uncoupled Coulomb oscillators in one mode (surfaces v1 = 0 and v2 = 0): each must move
+    as the automaton of its own, also when one reverses while the other sticks (the state
+    reaches the second surface while sliding on the first and crosses it). Both stuck at once
+    would be sliding on the intersection, which is not derived (a halt): the second one, with
+    little friction, never sticks here."""
+    s = filippov_system(
+        name="pair",
+        variables=["x1", "v1", "x2", "v2"],
+        parameters=["m", "k1", "k2", "R1", "R2", "F", "Omega"],
+        modes=[
+            Mode(
+                "m",
+                derivatives={
+                    "x1": "v1",
+                    "v1": "(F*sin(Omega*t) - k1*x1 - R1*sign(v1))/m",
+                    "x2": "v2",
+                    "v2": "(F*sin(Omega*t) - k2*x2 - R2*sign(v2))/m",
+                },
+            )
+        ],
+        transitions=[],
+        initial_mode="m",
+        period="2*pi/Omega",
+    )
+    assert [x.h for x in hybrid._filippov.surfaces(s)] == ["v1", "v2"]
+    p = {"m": 1.0, "k1": 1.0, "k2": 7.3, "R1": 0.3, "R2": 0.01, "F": 0.5, "Omega": 0.6}
+    span = (0.0, 4 * 2 * math.pi / p["Omega"])
+    grid = np.linspace(*span, 400)
+    # IDA: on this run the exact integrator's engine path mislocates a reversal of the second
+    # oscillator near t = 31.7 in both forms (a guard found beyond zero before it was armed; the
+    # automaton's reset v = 0 hides it), a separate issue of the exact path.
+    tr = simulate(s, p, span, {"x1": 0.0, "v1": 0.0, "x2": 0.0, "v2": 0.3}, t_eval=grid, options=IDA)
+    assert tr.status == Status.COMPLETED
+    crossed = [e for e in tr.events if e.guard.endswith(":meet")]
+    assert len(crossed) >= 3 and all(e.target.endswith(("_meet1", "_meet2")) for e in crossed)
+    for x, v, k, R, v0, mode0 in (
+        ("x1", "v1", "k1", "R1", 0.0, "stick"),
+        ("x2", "v2", "k2", "R2", 0.3, "slip+"),
+    ):
+        pk = coulomb.preset("forced", Omega=p["Omega"], R=p[R], k=p[k])
+        ref = simulate(coulomb, pk, span, {"x": 0.0, "v": v0}, mode0=mode0, t_eval=grid, options=IDA)
+        i, j = np.searchsorted(tr.t, grid, side="right") - 1, np.searchsorted(ref.t, grid, side="right") - 1
+        assert np.array_equal(tr.t[i], grid) and np.array_equal(ref.t[j], grid)
+        assert np.max(np.abs(tr[x][i] - ref["x"][j])) <= 1e-7
+        assert np.max(np.abs(tr[v][i] - ref["v"][j])) <= 1e-7
