@@ -58,6 +58,7 @@ from ._expr import (
     Expr,
     add,
     diff,
+    div,
     mul,
     num,
     replace_nodes,
@@ -358,8 +359,9 @@ class _Builder:
                 copies.append((sname, make(sname, sp)))
                 derived[i].append(sname)
                 plus, minus = names[p], names[flip]
-                self._add(plus, sname, h, -1, f"{lam}:reach")
-                self._add(minus, sname, h, 1, f"{lam}:reach")
+                project = _projection(h, diffvars, set(self.raw.parameter_names))
+                self._add(plus, sname, h, -1, f"{lam}:reach", project)
+                self._add(minus, sname, h, 1, f"{lam}:reach", project)
                 # Sliding: repulsion -> halt; exits at tangency (at once where the flow crosses).
                 a_plus, a_minus = rate(i, p), rate(i, flip)
                 orientation = diff(rate(i, sp), lam)
@@ -399,6 +401,22 @@ class _Builder:
                         derived[i].append(yname)
                         self._add(sname, yname, keys[j], q, f"{lams[j]}:meet")
                         self._add(yname, self._mode_name(m.name, spf), rate(j, spf), q, f"{lams[j]}:cross")
+                        if s == 2 and all(slides):  # sliding on both surfaces
+                            self._add(yname, self._mode_name(m.name, (0, 0)), ONE, 1, f"{lams[j]}:slide")
+        if s == 2 and all(slides):
+            # Sliding on both surfaces (codimension 2): sign_1 and sign_2 are the slaves of
+            # dh_1/dt = dh_2/dt = 0; it leaves surface i where sign_i reaches +-1 (the exit of
+            # an attractive surface, e.g. a friction contact breaking away).
+            both = self._mode_name(m.name, (0, 0))
+            copies.append((both, make(both, (0, 0))))
+            derived[0].append(both)
+            derived[1].append(both)
+            for i, lam in enumerate(lams):
+                for q in (1, -1):
+                    one = tuple(q if n == i else 0 for n in range(2))
+                    self._add(
+                        both, self._mode_name(m.name, one), sub(sym(lam), num(q)), q, f"{lam}:exit{_SIDE[q]}"
+                    )
         # Entry: the mode's own name decides the side of each surface in turn from the state, with
         # the flow frozen (so a state on a surface has no side: it goes to the sliding mode, whose
         # guards classify it by Filippov's rules: sliding, exit, crossing or repulsion).
@@ -432,8 +450,8 @@ class _Builder:
         for i in range(s):
             self.surfaces.append(Surface(m.name, to_string(keys[i]), lams[i], slides[i], tuple(derived[i])))
 
-    def _add(self, source, target, guard: Expr, direction: int, name: str) -> None:
-        self.transitions.append(Transition(source, target, guard, direction, name))
+    def _add(self, source, target, guard: Expr, direction: int, name: str, reset=None) -> None:
+        self.transitions.append(Transition(source, target, guard, direction, name, reset or {}))
 
     def transitions_of_user(self) -> None:
         """The model's own transitions, copied to every derived mode of their source."""
@@ -448,6 +466,19 @@ class _Builder:
                 reset = {n: replace_nodes(e, mp) if mp else e for n, e in td["reset"].items()}
                 target = self.entry.get(tr.target, tr.target)
                 self.transitions.append(Transition(src, target, guard, tr.direction, tr.name, reset))
+
+
+def _projection(h: Expr, diffvars: set[str], params: set[str]) -> dict[str, Expr]:
+    """Reset that puts the state exactly on ``h = 0`` when it reaches the surface: ``y := y - h/h_y``
+    for the first differential variable ``y`` in which ``h`` is affine with a coefficient of
+    parameters only (the automaton's ``v = 0`` at a stop); none for a surface not of that form.
+    A located event lies within rounding of the surface, but a grazing one may not, and the
+    sliding mode keeps ``h`` where it starts."""
+    for y in sorted(h.free & diffvars):
+        d = diff(h, y)
+        if not (d.free - params) and not (d.op == "num" and d.args[0] == 0.0):
+            return {y: sub(sym(y), div(h, d))}
+    return {}
 
 
 def _mentions_sign(kwargs: Mapping) -> bool:
