@@ -18,7 +18,8 @@ replaced by +1 (-1) and ``a+-`` = ``dh/dt`` along ``f+-`` (``h_t + h_y f+-``):
 mode ``M`` with surfaces ``h_1 ... h_s``:
 
 * one *region* mode per sign pattern, ``M_+-...``, with ``sign(h_i)`` replaced by the pattern's
-  +1 or -1; it lives where ``p_i h_i > 0`` and reaches surface ``i`` when ``h_i`` crosses 0;
+  +1 or -1; it lives where ``p_i h_i > 0`` and reaches surface ``i`` when ``h_i`` crosses 0
+  (projecting the state onto it where ``h_i`` is affine in a differential variable);
 * one *sliding* mode per surface and pattern of the others, ``M_0+...`` (a ``0`` at place
   ``i``), with ``sign(h_i)`` replaced by a new slave variable ``sign_i`` solved (by IDA, or
   exactly by the affine integrator) from ``0 = dh_i/dt``, index 1 where ``a+ != a-``. For a right-hand
@@ -32,8 +33,8 @@ mode ``M`` with surfaces ``h_1 ... h_s``:
 * *halt* modes (:attr:`hybrid.Mode.halt`) that end the run with a message: repulsive sliding
   (where the orientation ``d(dh_i/dt)/d sign_i = (a+ - a-)/2`` is positive on the surface; a
   crossing with that orientation passes through) and the meeting of two surfaces while sliding
-  on one (passed at once where the sliding field crosses the second surface; a halt where it
-  would slide on both);
+  on one (passed at once where the sliding field crosses the second surface; where it would slide
+  on both, the mode ``M_00`` sliding on both if the mode has exactly two surfaces, else a halt);
 * the *entry* ``M`` itself (initial mode, target of transitions into ``M``): with the flow frozen,
   it sends the state to the region it lies in, or, on a surface, to the sliding mode, whose
   guards classify it (sliding, exit, crossing or repulsion).
