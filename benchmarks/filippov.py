@@ -29,7 +29,7 @@ from hybrid_models.coulomb_exact import den_hartog
 
 ROOT = Path(__file__).resolve().parents[1]
 OMEGAS = (0.5, 0.7, 0.8, 0.9, 1.2, 1.5, 2.0, 3.0)
-RATIOS = (0.05, 0.2, 0.4, 0.6)
+RATIOS = (0.05, 0.2, 0.4, 0.6, 0.8)
 REPEAT = 3
 
 

@@ -220,6 +220,8 @@ OMEGAS_RATIOS = [
 ]
 
 
+# The exact flow takes long steps: a guard may dip and cross back within one (located since issue 12).
+@pytest.mark.filterwarnings("ignore:guard .* before it could be armed:RuntimeWarning")
 @pytest.mark.parametrize(("W", "ratio", "nonstop"), OMEGAS_RATIOS)
 def test_coulomb_orbits_match_the_automaton_and_den_hartog(coulomb, coulomb_sign, W, ratio, nonstop):
     p = coulomb.preset("forced", Omega=W, R=ratio * 0.5)
@@ -490,6 +492,8 @@ def test_transitions_of_the_model_are_copied_to_the_derived_modes():
         assert tr.final("x") == pytest.approx(0.0, abs=1e-12)
 
 
+# The exact flow takes long steps: a guard may dip and cross back within one (located since issue 12).
+@pytest.mark.filterwarnings("ignore:guard .* before it could be armed:RuntimeWarning")
 def test_two_surfaces_crossing_one_while_sliding_on_the_other(coulomb):
     """Two uncoupled Coulomb oscillators in one mode (surfaces v1 = 0 and v2 = 0): each must move
     as the automaton of its own: both stuck at the start (sliding on both surfaces), one
