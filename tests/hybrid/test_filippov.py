@@ -541,3 +541,31 @@ def test_two_surfaces_crossing_one_while_sliding_on_the_other(coulomb):
                 assert np.array_equal(tr.t[i], grid) and np.array_equal(ref.t[j], grid)
                 assert np.max(np.abs(tr[x][i] - ref["x"][j])) <= tol
                 assert np.max(np.abs(tr[v][i] - ref["v"][j])) <= tol
+
+
+def test_halt_mode_passes_on_or_ends_the_run():
+    """Mode.halt (generic): a halt mode whose guard is beyond its level at entry passes on at
+    once; otherwise the run ends with Status.HALTED and the mode's message."""
+    s = hybrid.HybridSystem(
+        name="halting",
+        variables=["x"],
+        parameters=["a"],
+        modes=[
+            Mode("go", derivatives={"x": "1"}),
+            Mode("check", derivatives={"x": "0"}, halt="x went past 1 with a <= 0"),
+            Mode("after", derivatives={"x": "-1"}),
+        ],
+        transitions=[
+            hybrid.Transition("go", "check", "x - 1", 1, "past"),
+            hybrid.Transition("check", "after", "a*x", 1, "allowed"),
+        ],
+        initial_mode="go",
+    )
+    tr = simulate(s, {"a": 1.0}, (0.0, 2.0), {"x": 0.0}, options=IDA)
+    assert tr.status == Status.COMPLETED and tr.final("x") == pytest.approx(0.0, abs=1e-9)
+    assert [e.target for e in tr.events] == ["check", "after"]
+    tr = simulate(s, {"a": -1.0}, (0.0, 2.0), {"x": 0.0}, options=IDA, throw=False)
+    assert tr.status == Status.HALTED and tr.t_final == pytest.approx(1.0, abs=1e-9)
+    assert "halted at t=" in tr.message and "x went past 1 with a <= 0" in tr.message
+    with pytest.raises(ModelError, match="`halt` must be printable text"):
+        Mode("bad", halt="line\nbreak")
