@@ -13,6 +13,7 @@ from ._continuation import continuation as continuation
 from ._continuation import forcing_parameter as forcing_parameter
 from ._expr import FUNCTIONS as FUNCTIONS
 from ._expr import ExpressionError as ExpressionError
+from ._filippov import filippov_system as filippov_system
 from ._frc import FrequencyResponse as FrequencyResponse
 from ._frc import frequency_response as frequency_response
 from ._io import EventsCSVWriter as EventsCSVWriter

@@ -353,8 +353,9 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
 
     Parameters
     ----------
-    text : str
-        The expression, in Python syntax restricted to numbers, names,
+    text : str or Expr
+        The expression (an :class:`Expr` already built from parsed trees is
+        returned as it is, once its names are checked), in Python syntax restricted to numbers, names,
         ``+ - * / **``, unary ``-``/``+``, parentheses and the functions
         :data:`FUNCTIONS`; at most :data:`MAX_EXPRESSION_LENGTH` characters,
         :data:`MAX_OPERATORS` operators, :data:`MAX_NESTING` levels of
@@ -376,6 +377,11 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
         On a syntax error, a forbidden construct, an unknown name or a limit
         exceeded (checked before :func:`ast.parse` runs).
     """
+    if isinstance(text, Expr):  # built by a front end from parsed trees (e.g. hybrid._filippov)
+        unknown = sorted(text.free - set(known) - CONSTANTS.keys())
+        if unknown:
+            raise ExpressionError(f"{where}: unknown name `{unknown[0]}` in {to_string(text, 80)!r}")
+        return text
     if not isinstance(text, str):
         raise ExpressionError(f"{where}: expected an expression string, got {type(text).__name__} {text!r}")
     if len(text) > MAX_EXPRESSION_LENGTH:
@@ -512,6 +518,11 @@ def to_string(e: Expr, limit: int = 2000) -> str:
         if size > limit:
             return "".join(parts) + " ..."
     return "".join(parts)
+
+
+def sign_arguments(e: Expr) -> list[Expr]:
+    """The distinct arguments ``h`` of the calls ``sign(h)`` in an expression, in walk order."""
+    return [n.args[1] for n in postorder([e]) if n.op == "call" and n.args[0] == "sign"]
 
 
 def free_symbols(e: Expr) -> set[str]:

@@ -60,6 +60,7 @@ from collections.abc import Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
 
+from ._filippov import filippov_system
 from ._system import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
 
 __all__ = [
@@ -321,7 +322,7 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         if not isinstance(values, Mapping):
             raise ModelError(f"[presets.{_key(pname)}] must be a table of parameter values")
         presets[pname] = dict(values)
-    return HybridSystem(
+    return filippov_system(
         name=str(model["name"]),
         title=str(model.get("title", "")),
         reference=str(model.get("reference", "")),

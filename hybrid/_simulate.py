@@ -590,6 +590,9 @@ class _Run:
                     fire = g
                     break
             if fire is None:
+                halt = self.cs.system.mode(cm.name).halt
+                if halt:
+                    raise _Stop(Status.HALTED, f"halted at t={t!r} in mode `{cm.name}`: {halt}")
                 if not np.all(np.isfinite(y)):
                     raise _Stop(
                         Status.SOLVER_FAILED, f"state became non-finite at t={t!r} in mode `{cm.name}`"
@@ -862,10 +865,18 @@ class _Run:
             return fn([tau, *solver.interpolate(tau)[0].tolist()])
 
         h_end = fn([r.t, *r.y.tolist()])
-        if not (t_prev < r.t and h(t_prev) * h_end < 0):
+        if not t_prev < r.t:
             return r
         lo, hi = t_prev, r.t
         h_lo = h(lo)
+        if h_lo * h_end >= 0:
+            # The guard started at zero (disarmed) and went to its safe side before crossing back
+            # within the step (a long step of the exact flow): bisect from the last point on that side.
+            inner = [tau for tau in np.linspace(t_prev, r.t, 65)[1:-1] if h(tau) * h_end < 0]
+            if not inner:
+                return r
+            lo = inner[-1]
+            h_lo = h(lo)
         for _ in range(200):  # bisection to rounding of t
             mid = 0.5 * (lo + hi)
             if not lo < mid < hi:

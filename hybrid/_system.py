@@ -32,7 +32,17 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from ._expr import Expr, ExpressionError, compile_scalar, count_nodes, free_symbols, parse, substitute
+from ._expr import (
+    Expr,
+    ExpressionError,
+    compile_scalar,
+    count_nodes,
+    free_symbols,
+    parse,
+    sign_arguments,
+    substitute,
+    to_string,
+)
 
 __all__ = ["Variable", "Parameter", "Mode", "Transition", "HybridSystem", "ModelError"]
 
@@ -152,14 +162,23 @@ class Mode:
     definitions : mapping of str to str
         Named expressions valid in this mode; they override the system's
         definitions of the same name.
+    halt : str
+        Empty for an ordinary mode. Otherwise the run may not stay in this
+        mode: entering it either passes on at once through a guard already
+        beyond its level, or ends the run with ``Status.HALTED`` and this
+        message (e.g. a state where a discontinuous right-hand side has no
+        unique continuation, see :mod:`hybrid._filippov`).
     """
 
     name: str
     derivatives: Mapping[str, str] = field(default_factory=dict)
     algebraic: Mapping[str, str] = field(default_factory=dict)
     definitions: Mapping[str, str] = field(default_factory=dict)
+    halt: str = ""
 
     def __post_init__(self):
+        if not isinstance(self.halt, str) or len(self.halt) > 4 * MAX_TEXT or not self.halt.isprintable():
+            raise ModelError(f"mode `{self.name}`: `halt` must be printable text, got {self.halt!r:.60}")
         object.__setattr__(
             self, "derivatives", _frozen_map(self.derivatives, f"mode `{self.name}` derivatives")
         )
@@ -515,7 +534,9 @@ class HybridSystem:
             md = mode_data[tr.source]
             known = base_known | set(md["defs"])
             g = md["expand"](parse(tr.guard, known, f"{pre}: guard of transition `{tr.name}`"))
-            if not (free_symbols(g) - set(pnames)):
+            # A guard built by a front end (an Expr, not text) may be constant: it is then a test
+            # at entry to its mode (e.g. a Filippov sliding mode's orientation), never a crossing.
+            if isinstance(tr.guard, str) and not (free_symbols(g) - set(pnames)):
                 raise ModelError(
                     f"{pre}: guard of transition `{tr.name}` ({tr.guard!r}) depends on no variable and not on t: "
                     "it can never cross zero"
@@ -583,6 +604,7 @@ class HybridSystem:
                 if o not in mode_data[m.name]["defs"]:
                     raise ModelError(f"{pre}: output `{o}` is not a definition in mode `{m.name}`")
         self._validate_orbit(pre, base_known, parsed_defs, mode_data)
+        self._check_continuous(pre, mode_data)
         if self.period is not None:
             pe = parse(self.period, set(pnames), f"{pre}: period")
             self._set_cache("period", pe)
@@ -603,6 +625,22 @@ class HybridSystem:
                     )
         self._set_cache("modes", mode_data)
         self._set_cache("transitions", trans)
+
+    def _check_continuous(self, pre: str, mode_data: Mapping[str, dict]) -> None:
+        """Refuse ``sign()`` of the state or of ``t`` in a mode's equations (a discontinuous
+        right-hand side, which IDA would step across silently): such a system is built by
+        :func:`hybrid.filippov_system`, which derives its regions and sliding modes."""
+        for mname, md in mode_data.items():
+            for kind, eqs in (("derivative", md["derivatives"]), ("algebraic equation", md["algebraic"])):
+                for n, e in eqs.items():
+                    for h in sign_arguments(e):
+                        if h.free - {p.name for p in self.parameters}:
+                            raise ModelError(
+                                f"{pre}: mode `{mname}`: {kind} of `{n}` contains sign({to_string(h, 80)}), "
+                                "a discontinuous right-hand side that an integrator would step across; "
+                                "build the system with hybrid.filippov_system(...) (load_system does so for "
+                                "model files) to have its surfaces handled by Filippov's convention"
+                            )
 
     def _validate_orbit(self, pre: str, base_known: set[str], defs: Mapping[str, Expr], mode_data) -> None:
         if "stick_modes" in self.orbit:

@@ -24,6 +24,7 @@ class Status(enum.IntEnum):
     STEP_LIMIT = -7
     TIME_LIMIT = -8
     MAX_SAMPLES = -9
+    HALTED = -10  # entered a mode declared `halt` (e.g. repulsive sliding of a Filippov system)
 
 
 @dataclass(frozen=True)

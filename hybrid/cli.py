@@ -24,6 +24,7 @@ import numpy as np
 
 from ._budget import time_limit
 from ._expr import ExpressionError
+from ._filippov import surfaces
 from ._io import (
     EventsCSVWriter,
     TrajectoryCSVWriter,
@@ -882,6 +883,15 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
         differential = [v for v in system.variable_names if v not in m.algebraic]
         rows.append((m.name, ", ".join(differential), ", ".join(m.algebraic) or "-"))
     lines += _table(("mode", "differential", "slave (algebraic)"), rows)
+    found = surfaces(system)
+    if found:
+        lines.append("")
+        lines.append("discontinuity surfaces h = 0 of sign(h) (Filippov's convention, docs/filippov.md):")
+        rows = [
+            (s.h, s.mode, s.coefficient, "sliding" if s.slides else "crossing only", ", ".join(s.modes))
+            for s in found
+        ]
+        lines += _table(("h", "in mode", "sign(h) is", "on h = 0", "derived modes"), rows)
     lines.append("")
     lines.append("transitions:")
     arrow = {1: "rising", -1: "falling", 0: "either"}

@@ -16,7 +16,7 @@ from importlib import resources
 
 from hybrid import HybridSystem, load_system
 
-__all__ = ["absorber", "isolator", "coulomb", "BUILTIN"]
+__all__ = ["absorber", "isolator", "coulomb", "coulomb_sign", "belt_sign", "BUILTIN"]
 
 
 @cache
@@ -40,5 +40,21 @@ def coulomb() -> HybridSystem:
     return _load("coulomb")
 
 
+def coulomb_sign() -> HybridSystem:
+    """The Coulomb oscillator written as one equation with ``sign(v)`` (Filippov); presets as ``coulomb``."""
+    return _load("coulomb_sign")
+
+
+def belt_sign() -> HybridSystem:
+    """Mass on a moving belt written with ``sign(v - v_b)`` (Filippov); presets ``standard``, ``damped``."""
+    return _load("belt_sign")
+
+
 #: Built-in model factories by name.
-BUILTIN = {"absorber": absorber, "isolator": isolator, "coulomb": coulomb}
+BUILTIN = {
+    "absorber": absorber,
+    "isolator": isolator,
+    "coulomb": coulomb,
+    "coulomb_sign": coulomb_sign,
+    "belt_sign": belt_sign,
+}

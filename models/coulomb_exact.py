@@ -7,6 +7,8 @@ equilibrium ``+-d`` with ``d = R/k``: the turning-point amplitude drops by ``2 d
 cycle, and the motion stops for good at the first turning point with ``|x| <= d``.
 
 Units: ``m`` [kg], ``k`` [N/m], ``R`` [N], ``x0`` [m], ``t`` [s].
+
+Also the amplitude of the forced oscillator's non-stop steady motion (:func:`den_hartog`).
 """
 
 from __future__ import annotations
@@ -139,3 +141,28 @@ def free_response(
     x = np.where(moving, s_n * d + amp * np.cos(phase), s_n * a_n)
     v = np.where(moving, -amp * omega * np.sin(phase), 0.0)
     return x, v
+
+
+def den_hartog(m: float, k: float, R: float, F: float, W: float) -> float:
+    """Amplitude [m] of the non-stop steady motion of ``m x'' + k x + R sgn(x') = F cos(W t)``.
+
+    Den Hartog (1931), "Forced vibrations with combined Coulomb and viscous friction", Trans.
+    ASME APM-53-9, 107-115. Units: ``m`` [kg], ``k`` [N/m], ``R``, ``F`` [N], ``W`` [rad/s].
+
+    Half a period from ``x = -X, x' = 0`` to ``x = X, x' = 0`` with friction ``-R``: the general
+    solution ``x = A cos(w t) + B sin(w t) + x_st V cos(W t + phi) - R/k`` (``w^2 = k/m``,
+    ``r = W/w``, ``x_st = F/k``, ``V = 1/(1 - r^2)``, ``theta = pi/r``) and the four end
+    conditions give ``B = (R/k) sin(theta)/(1 + cos(theta))``, ``x_st V r sin(phi) = B`` and
+    ``X = -x_st V cos(phi)``, hence Den Hartog's
+
+        X / x_st = sqrt(V^2 - (R/F)^2 U^2),   U = sin(theta) / (r (1 + cos(theta))).
+
+    The motion does not stop at the turning points if ``k X r^2 > R`` (the force on the mass
+    at ``x = -X`` is ``F cos(phi) + k X = k X r^2``).
+    """
+    w = math.sqrt(k / m)
+    r = W / w
+    th = math.pi / r
+    V = 1.0 / (1.0 - r * r)
+    U = math.sin(th) / (r * (1.0 + math.cos(th)))
+    return (F / k) * math.sqrt(V * V - (R / F) ** 2 * U * U)

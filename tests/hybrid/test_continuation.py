@@ -4,7 +4,7 @@ References: the Duffing folds and the friction oscillator's loss of stick come f
 ``orbit_problems.py`` (solve_ivp and exact piecewise solutions, no engine); the forced Coulomb
 oscillator's non-stop response is Den Hartog's closed form (J. P. Den Hartog, "Forced
 vibrations with combined Coulomb and viscous friction", Trans. ASME APM-53-9, 1931, 107-115),
-derived again in :func:`den_hartog`.
+derived again in :func:`hybrid_models.coulomb_exact.den_hartog`.
 """
 
 from __future__ import annotations
@@ -19,28 +19,7 @@ import pytest
 import hybrid
 from hybrid import ContinuationOptions, continuation, frequency_response
 from hybrid.cli import main, resolve_model
-
-
-def den_hartog(m: float, k: float, R: float, F: float, W: float) -> float:
-    """Amplitude of the non-stop steady motion of ``m x'' + k x + R sgn(x') = F cos(W t)``.
-
-    Half a period from ``x = -X, x' = 0`` to ``x = X, x' = 0`` with friction ``-R``: the general
-    solution ``x = A cos(w t) + B sin(w t) + x_st V cos(W t + phi) - R/k`` (``w^2 = k/m``,
-    ``r = W/w``, ``x_st = F/k``, ``V = 1/(1 - r^2)``, ``theta = pi/r``) and the four end
-    conditions give ``B = (R/k) sin(theta)/(1 + cos(theta))``, ``x_st V r sin(phi) = B`` and
-    ``X = -x_st V cos(phi)``, hence Den Hartog's
-
-        X / x_st = sqrt(V^2 - (R/F)^2 U^2),   U = sin(theta) / (r (1 + cos(theta))).
-
-    The motion does not stop at the turning points if ``k X r^2 > R`` (the force on the mass
-    at ``x = -X`` is ``F cos(phi) + k X = k X r^2``).
-    """
-    w = math.sqrt(k / m)
-    r = W / w
-    th = math.pi / r
-    V = 1.0 / (1.0 - r * r)
-    U = math.sin(th) / (r * (1.0 + math.cos(th)))
-    return (F / k) * math.sqrt(V * V - (R / F) ** 2 * U * U)
+from hybrid_models.coulomb_exact import den_hartog
 
 
 def den_hartog_tolerance(m: float, k: float, W: float) -> float:
