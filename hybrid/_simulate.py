@@ -385,6 +385,19 @@ class _Grid:
             raise IndexError(i)
         return self.t0 + i * self.h if i <= self.n else self.t1
 
+    def searchsorted(self, t: float, side: str) -> int:
+        """As ``np.searchsorted(times, t, side)`` on the array of the grid's times."""
+        k = min(max(int(math.floor((t - self.t0) / self.h)) - 1, 0), self.size)
+        while k < self.size and (self[k] < t or (side == "right" and self[k] == t)):
+            k += 1
+        while k > 0 and (self[k - 1] > t or (side == "left" and self[k - 1] == t)):
+            k -= 1
+        return k
+
+    def times(self, a: int, b: int) -> np.ndarray:
+        """The times ``a`` to ``b - 1`` as an array."""
+        return np.array([self[i] for i in range(a, b)])
+
 
 def _sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | _Grid | None:
     if t_eval is not None and spp is not None:
@@ -714,9 +727,11 @@ class _Run:
             return
         s = self.samples
         if many is not None:
-            j = int(np.searchsorted(s, t, side="right" if inclusive else "left"))
+            side = "right" if inclusive else "left"
+            grid = isinstance(s, _Grid)  # (a long run's times, made on demand)
+            j = s.searchsorted(t, side) if grid else int(np.searchsorted(s, t, side=side))
             if j > self.next_sample:
-                ts = s[self.next_sample : j]
+                ts = s.times(self.next_sample, j) if grid else s[self.next_sample : j]
                 Y, m = many(ts)
                 if self.opt.integrator == "exact" or self.cs.modes[m].alg_idx.size == 0:
                     for ev in self.events:  # as record(), for all at once (no slave variable to re-solve)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import HybridSystem, Mode, Transition
+from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
 from hybrid._compiled import CompiledSystem
 from hybrid._dae import ROOT, TSTOP
 from hybrid._exact import ExactModeSolver, NotAffineError, affine_mode, affine_system
@@ -388,3 +388,31 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
         sh = Shooter(system, p, opts, free="Omega")
         cols.append(sh.monodromy(sh.run(o.x0, o.mode0, o.t0))[:, -1])
     assert np.max(np.abs(cols[0] - cols[1])) <= 1e-9 * np.max(np.abs(cols[1]))
+
+
+@pytest.mark.parametrize("spp", [4, 16])
+def test_a_simulation_sampled_per_period_runs_on_the_exact_integrator(spp):
+    """`samples_per_period` gives a grid made on demand (not an array); the exact integrator takes
+    its samples from each step's flow all at once and failed on it ("object of too small depth",
+    reported as an evaluation failure of the model). Same sample times as IDA, and the same states
+    to IDA's accuracy."""
+    system = hybrid_models.coulomb()
+    p = system.preset("forced", Omega=1.5)
+    T = 2 * np.pi / 1.5
+    y0 = {"x": 0.0, "v": 0.0, "W": 0.0, "D": 0.0}
+    runs = {
+        integ: simulate(
+            system,
+            p,
+            (0.0, 20 * T),
+            y0,
+            samples_per_period=spp,
+            options=SolverOptions(integrator=integ, rtol=1e-11, atol=1e-13),
+        )
+        for integ in ("exact", "ida")
+    }
+    ex, ida = runs["exact"], runs["ida"]
+    assert ex.success and ida.success, (ex.message, ida.message)
+    assert ex.t.size == 20 * spp + 1
+    np.testing.assert_array_equal(ex.t, ida.t)
+    np.testing.assert_allclose(ex["x"], ida["x"], rtol=0, atol=1e-8)
