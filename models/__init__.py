@@ -16,7 +16,7 @@ from importlib import resources
 
 from hybrid import HybridSystem, load_system
 
-__all__ = ["absorber", "isolator", "coulomb", "BUILTIN"]
+__all__ = ["absorber", "isolator", "coulomb", "belt", "belt_stribeck", "BUILTIN"]
 
 
 @cache
@@ -40,5 +40,21 @@ def coulomb() -> HybridSystem:
     return _load("coulomb")
 
 
+def belt() -> HybridSystem:
+    """Mass on a moving belt, Coulomb friction with stiction (autonomous); presets ``standard``, ``damped``."""
+    return _load("belt")
+
+
+def belt_stribeck() -> HybridSystem:
+    """Mass on a moving belt, Stribeck friction (autonomous); preset ``standard``."""
+    return _load("belt_stribeck")
+
+
 #: Built-in model factories by name.
-BUILTIN = {"absorber": absorber, "isolator": isolator, "coulomb": coulomb}
+BUILTIN = {
+    "absorber": absorber,
+    "isolator": isolator,
+    "coulomb": coulomb,
+    "belt": belt,
+    "belt_stribeck": belt_stribeck,
+}
