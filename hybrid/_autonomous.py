@@ -400,7 +400,9 @@ def finish(solver: AutonomousSolver, y, mode, T, ev: Evaluation, it, res, sample
         hi, lo = ext.extremes(n, x)
         amp[n] = max(abs(hi), abs(lo))
         hpp[n] = 0.5 * (hi - lo)
-    sv = np.linalg.svd(solver.jacobian(ev, d, pos, None if solver.phase != "anchor" else (y, f0)), compute_uv=False)
+    Jn = solver.jacobian(ev, d, pos, None if solver.phase != "anchor" else (y, f0))
+    Jn = Jn[:, :-1] if fm.free else Jn  # the free parameter's column is not an unknown here
+    sv = np.linalg.svd(Jn, compute_uv=False)
     cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else math.inf
     where = "anchor" if solver.phase == "anchor" else f"section `{solver.phase}`"
     msg = (
@@ -417,8 +419,9 @@ def finish(solver: AutonomousSolver, y, mode, T, ev: Evaluation, it, res, sample
         trajectory=tr,
         amplitude=amp,
         half_peak_to_peak=hpp,
+        # on a switch section, the section's own switch closes the period
         mode_sequence=tuple([mode] + [e.target for e in tr.events]),
-        switch_times=np.array([e.t for e in tr.events]),
+        switch_times=np.array([e.t for e in tr.events] + ([] if solver.phase == "anchor" else [float(T)])),
         mode_fractions=mode_fractions(tr, t_end),
         state_names=tuple(fm.names[i] for i in fm.s),
         monodromy=Ms,
