@@ -181,7 +181,10 @@ def _branch(
             state["modes"] = modes
         elif modes != state["modes"]:
             special.append(
-                {"kind": "mode change", "interval": sorted([orbits[-2].params[fm.free], orbit.params[fm.free]])}
+                {
+                    "kind": "mode change",
+                    "interval": sorted([orbits[-2].params[fm.free], orbit.params[fm.free]]),
+                }
             )
             if stop_on_mode_change:
                 return "mode change"
@@ -215,7 +218,8 @@ def guard_margin(fm: FlowMap, orbit: PeriodicOrbit) -> float:
     scale = max(float(np.max(np.abs(tr.y))), 1e-300)
     best = min(orbit.mode_fractions.values()) if len(orbit.mode_fractions) > 1 else math.inf
     for cm in fm.cs.modes:
-        rows = np.flatnonzero(tr.mode == cm.name)
+        at_switch = np.isin(tr.t, [0.0, tr.t[-1], *(e.t for e in tr.events)])  # where guards are 0 anyway
+        rows = np.flatnonzero((tr.mode == cm.name) & ~at_switch)
         if not rows.size or not cm.guards:
             continue
         dirs = np.array([g.direction for g in cm.guards], dtype=float)
@@ -260,7 +264,16 @@ def orbit_branch(
     t0 = np.zeros(u0.size)
     t0[-1] = direction
     return _branch(
-        fm, solver, orbit.mode0, orbit.x0.copy(), u0, t0, bounds, settings, stop_on_mode_change, samples_per_period,
+        fm,
+        solver,
+        orbit.mode0,
+        orbit.x0.copy(),
+        u0,
+        t0,
+        bounds,
+        settings,
+        stop_on_mode_change,
+        samples_per_period,
         orbit.period,
     )
 

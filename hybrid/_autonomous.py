@@ -153,7 +153,7 @@ class AutonomousSolver:
             res = float(np.max(np.abs(r))) / scale
             A = self.jacobian(ev, d, pos, anchor)
             step = np.linalg.lstsq(A, -r, rcond=None)[0]
-            if res <= self.tol and float(np.max(np.abs(step[:n_d(d)]))) <= self.tol * scale:
+            if res <= self.tol and float(np.max(np.abs(step[: n_d(d)]))) <= self.tol * scale:
                 if ev.end_mode != mode:
                     return y, T, ev, it, res, f"the orbit ends in mode `{ev.end_mode}`, not `{mode}`"
                 return y, T, ev, it, res, ""
@@ -175,11 +175,25 @@ class AutonomousSolver:
                     pass
                 lam *= 0.5
             else:
-                return y, T, ev, it, res, (
-                    f"Newton's method found no decrease of the residual ({it} iterations, residual {res:.3g})"
+                return (
+                    y,
+                    T,
+                    ev,
+                    it,
+                    res,
+                    (
+                        f"Newton's method found no decrease of the residual ({it} iterations, residual {res:.3g})"
+                    ),
                 )
             y, T, ev = y_new, T_new, ev_new
-        return y, T, ev, self.max_iter, res, f"Newton's method did not converge ({self.max_iter} iterations, residual {res:.3g})"
+        return (
+            y,
+            T,
+            ev,
+            self.max_iter,
+            res,
+            f"Newton's method did not converge ({self.max_iter} iterations, residual {res:.3g})",
+        )
 
 
 def n_d(d: np.ndarray) -> int:
@@ -344,7 +358,10 @@ def classify(mult: np.ndarray, vecs: np.ndarray, f0: np.ndarray, n_struct: int, 
     fn = f0 / max(float(np.linalg.norm(f0)), 1e-300)
     k_triv = None
     if vecs is not None and vecs.size and np.linalg.norm(f0) > 0:
-        align = [abs(np.vdot(vecs[:, j], fn)) / max(np.linalg.norm(vecs[:, j]), 1e-300) for j in range(vecs.shape[1])]
+        align = [
+            abs(np.vdot(vecs[:, j], fn)) / max(np.linalg.norm(vecs[:, j]), 1e-300)
+            for j in range(vecs.shape[1])
+        ]
         k_triv = int(np.argmax(align))
     order = np.argsort(-np.abs(mult), kind="stable")
     mult = mult[order]

@@ -43,7 +43,9 @@ def validate_hints(system, pre: str) -> dict:
         if not isinstance(guess, str):
             raise ModelError(f"{pre}: [orbit] `period_guess` must be an expression string, got {guess!r}")
         try:
-            out["period_guess"] = parse(guess, {p.name for p in system.parameters}, f"{pre}: orbit period_guess")
+            out["period_guess"] = parse(
+                guess, {p.name for p in system.parameters}, f"{pre}: orbit period_guess"
+            )
         except ExpressionError as exc:
             raise ModelError(f"{exc} (`period_guess` may use parameters only)") from None
     return out
@@ -65,5 +67,7 @@ def period_guess(system, params: Mapping[str, float]) -> float | None:
     except (ArithmeticError, ValueError) as exc:
         raise ValueError(f"model `{system.name}`: `period_guess` cannot be evaluated: {exc}") from None
     if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"model `{system.name}`: `period_guess` evaluates to {value!r}; it must be finite and > 0")
+        raise ValueError(
+            f"model `{system.name}`: `period_guess` evaluates to {value!r}; it must be finite and > 0"
+        )
     return value

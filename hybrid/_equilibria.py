@@ -97,7 +97,9 @@ class Equilibrium:
 
 def _unknowns(system: HybridSystem, cm) -> np.ndarray:
     quad = set(system.quadratures)
-    return np.array([i for i in cm.diff_idx if cm.names[i] not in quad and i < len(system.variable_names)], dtype=int)
+    return np.array(
+        [i for i in cm.diff_idx if cm.names[i] not in quad and i < len(system.variable_names)], dtype=int
+    )
 
 
 def reduced_jacobian(cm, y: np.ndarray, d: np.ndarray, extra: np.ndarray | None = None) -> np.ndarray:
@@ -189,12 +191,18 @@ def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
     except (RuntimeError, np.linalg.LinAlgError, ArithmeticError) as exc:
         msg = f"Newton's method failed: {exc}"
         A = np.full((d.size, d.size), np.nan)
+    if not msg and d.size:
+        sv = np.linalg.svd(A, compute_uv=False)
+        if sv[-1] <= 1e-12 * max(sv[0], 1.0):
+            msg = "the Jacobian is singular there: not an isolated equilibrium (a continuum of steady states)"
     ev = np.linalg.eigvals(A) if np.all(np.isfinite(A)) else np.full(d.size, np.nan, dtype=complex)
     ev = ev[np.argsort(-ev.real, kind="stable")]
     h = cm.guard_values(0.0, y)
     dirs = np.array([g.direction for g in cm.guards])
     # a guard with direction +1 fires when it rises through 0: admissible while it is negative
-    admissible = bool(np.all(np.where(dirs > 0, h < 0, np.where(dirs < 0, h > 0, h != 0)))) if h.size else True
+    admissible = (
+        bool(np.all(np.where(dirs > 0, h < 0, np.where(dirs < 0, h > 0, h != 0)))) if h.size else True
+    )
     return Equilibrium(
         system=system,
         params=dict(params),
