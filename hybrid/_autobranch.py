@@ -186,6 +186,7 @@ def _branch(
                     "interval": sorted([orbits[-2].params[fm.free], orbit.params[fm.free]]),
                 }
             )
+            state["modes"] = modes
             if stop_on_mode_change:
                 return "mode change"
         if len(orbits) >= 3:

@@ -16,7 +16,7 @@ from importlib import resources
 
 from hybrid import HybridSystem, load_system
 
-__all__ = ["absorber", "isolator", "coulomb", "belt", "belt_stribeck", "BUILTIN"]
+__all__ = ["absorber", "isolator", "coulomb", "belt", "belt_stribeck", "belt_damper", "BUILTIN"]
 
 
 @cache
@@ -50,6 +50,11 @@ def belt_stribeck() -> HybridSystem:
     return _load("belt_stribeck")
 
 
+def belt_damper() -> HybridSystem:
+    """The Stribeck belt oscillator with the sequential friction-spring damper attached (autonomous); preset ``standard``."""
+    return _load("belt_damper")
+
+
 #: Built-in model factories by name.
 BUILTIN = {
     "absorber": absorber,
@@ -57,4 +62,5 @@ BUILTIN = {
     "coulomb": coulomb,
     "belt": belt,
     "belt_stribeck": belt_stribeck,
+    "belt_damper": belt_damper,
 }
