@@ -26,7 +26,7 @@ from ._equilibria import Equilibrium, equilibrium, locate_hopf
 from ._flowmap import FlowMap
 from ._options import SolverOptions
 from ._orbit import ORBIT_OPTIONS, PeriodicOrbit
-from ._palc import PalcSettings, follow
+from ._palc import RETRY, PalcSettings, follow
 from ._system import HybridSystem
 
 __all__ = ["EquilibriumBranch", "OrbitBranch", "equilibrium_branch", "hopf_branch", "orbit_branch"]
@@ -168,27 +168,23 @@ def _branch(
         y, ev = info
         T = float(u[nd]) if anchored else ev.time
         orbit = finish(solver, y, mode, T, ev, 0, 0.0, samples)
-        orbits.append(orbit)
-        state["T"] = T
-        if anchored:
-            f = fm.field(mode, y)[d]
-            state["anchor"] = (y.copy(), f / np.linalg.norm(f))
-        if len(orbits) >= 2 and orbit.period > PERIOD_JUMP * orbits[-2].period:
-            orbits.pop()  # a switch missed at a grazing (or an orbit of another kind): not this branch
-            return "period jump"
         modes = frozenset(orbit.mode_sequence)
-        if state["modes"] is None:
-            state["modes"] = modes
-        elif modes != state["modes"]:
+        if orbits and modes != state["modes"]:
+            if stop_on_mode_change:  # an orbit of another kind: approach the switch it met instead
+                return RETRY
             special.append(
                 {
                     "kind": "mode change",
-                    "interval": sorted([orbits[-2].params[fm.free], orbit.params[fm.free]]),
+                    "interval": sorted([orbits[-1].params[fm.free], orbit.params[fm.free]]),
                 }
             )
-            state["modes"] = modes
-            if stop_on_mode_change:
-                return "mode change"
+        if orbits and orbit.period > PERIOD_JUMP * orbits[-1].period:
+            return "period jump"  # a switch missed at a grazing (or an orbit of another kind): not kept
+        orbits.append(orbit)
+        state["modes"], state["T"] = modes, T
+        if anchored:
+            f = fm.field(mode, y)[d]
+            state["anchor"] = (y.copy(), f / np.linalg.norm(f))
         if len(orbits) >= 3:
             p = [o.params[fm.free] for o in orbits[-3:]]
             if (p[1] - p[0]) * (p[2] - p[1]) < 0:
@@ -196,7 +192,10 @@ def _branch(
         return None
 
     points, reason = follow(evaluate, u0, t0, settings, index=len(u0) - 1, bounds=bounds, accept=accept)
-    if reason in ("stalled", "period jump") and orbits and guard_margin(fm, orbits[-1]) <= GRAZING_MARGIN:
+    if orbits and (
+        reason == "boundary"
+        or (reason in ("stalled", "period jump") and guard_margin(fm, orbits[-1]) <= GRAZING_MARGIN)
+    ):
         reason = "grazing"
         special.append({"kind": "grazing", "interval": [orbits[-1].params[fm.free]] * 2})
     values = np.array([o.params[fm.free] for o in orbits])

@@ -14,7 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PalcSettings", "follow"]
+__all__ = ["PalcSettings", "follow", "RETRY"]
+
+#: What ``accept`` returns for a point that lies beyond a boundary of the branch (e.g. where the
+#: solution changes kind): it is discarded and approached with half the step, down to ``ds_min``
+#: (then the branch ends with the reason ``"boundary"``).
+RETRY = "retry"
 
 
 @dataclass(frozen=True)
@@ -78,13 +83,14 @@ def follow(
     bounds : (float, float)
         The branch ends when the parameter leaves this interval.
     accept : callable, optional
-        ``(u, info) -> str | None`` for each corrected point: a reason to stop after it, or None.
+        ``(u, info) -> str | None`` for each corrected point: a reason to stop after it, None, or
+        :data:`RETRY` (the point is discarded and the step halved).
 
     Returns
     -------
     points : list of (ndarray, info)
     reason : str
-        ``"range"``, ``"max_points"``, ``"stalled"`` or the reason given by ``accept``.
+        ``"range"``, ``"max_points"``, ``"stalled"``, ``"boundary"`` or the reason given by ``accept``.
     """
     st = settings
     t = np.asarray(t0, dtype=float) / np.linalg.norm(t0)
@@ -102,12 +108,17 @@ def follow(
                 return points, "stalled"
             continue
         u_new, J, info, iters = got
+        why = accept(u_new, info) if accept is not None else None
+        if why == RETRY:  # a point beyond a boundary of the branch: approach it with shorter steps
+            ds *= 0.5
+            if ds < st.ds_min:
+                return points, "boundary"
+            continue
         t = tangent(J, t)
         u = u_new
         points.append((u.copy(), info))
         if not lo <= u[index] <= hi:
             return points, "range"
-        why = accept(u, info) if accept is not None else None
         if why:
             return points, why
         ds = st.ds if ds == 0.0 else (min(2.0 * ds, st.ds_max) if iters <= 3 else ds)
