@@ -124,7 +124,10 @@ def test_non_positive_or_non_finite_omega_is_rejected(omega, capsys):
 def test_unknown_model(capsys):
     code, out, err = run(["simulate", "damper9000"], capsys)
     assert code == 2
-    assert "unknown model `damper9000`; built-in models: absorber, coulomb, isolator" in err
+    assert (
+        "unknown model `damper9000`; built-in models: absorber, belt, belt_damper, belt_stribeck, coulomb, isolator"
+        in err
+    )
 
 
 MODEL = """

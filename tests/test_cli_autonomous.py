@@ -44,11 +44,19 @@ def test_cont_finds_the_hopf_point_and_its_branch(tmp_path, capsys):
 
 
 def test_cont_refuses_bad_input(tmp_path, capsys):
-    code, _, err = run(["cont", "belt", "--param", "nope", "--range", "0", "1", "--out", str(tmp_path)], capsys)
+    code, _, err = run(
+        ["cont", "belt", "--param", "nope", "--range", "0", "1", "--out", str(tmp_path)], capsys
+    )
     assert code == 2 and "no parameter `nope`" in err
-    code, _, err = run(["cont", "belt", "--param", "v_b", "--range", "1", "1", "--out", str(tmp_path)], capsys)
+    code, _, err = run(
+        ["cont", "belt", "--param", "v_b", "--range", "1", "1", "--out", str(tmp_path)], capsys
+    )
     assert code == 2 and "--range" in err
-    code, _, err = run(["cont", "belt", "--param", "v_b", "--range", "-1", "1", "--out", str(tmp_path)], capsys)
+    code, _, err = run(
+        ["cont", "belt", "--param", "v_b", "--range", "-1", "1", "--out", str(tmp_path)], capsys
+    )
     assert code == 2 and "v_b" in err
-    code, _, err = run(["cont", "coulomb", "--param", "F", "--range", "0", "1", "--out", str(tmp_path)], capsys)
+    code, _, err = run(
+        ["cont", "coulomb", "--param", "F", "--range", "0", "1", "--out", str(tmp_path)], capsys
+    )
     assert code == 2 and "periodically forced" in err
