@@ -134,6 +134,7 @@ def _branch(
     stop_on_mode_change: bool,
     samples: int,
     period: float,
+    stop_on_mode_loss: bool = True,
 ) -> OrbitBranch:
     d, pos = solver.unknowns(mode)
     nd = d.size
@@ -170,7 +171,9 @@ def _branch(
         orbit = finish(solver, y, mode, T, ev, 0, 0.0, samples)
         modes = frozenset(orbit.mode_sequence)
         if orbits and modes != state["modes"]:
-            if stop_on_mode_change:  # an orbit of another kind: approach the switch it met instead
+            # an orbit of another kind (a switch met, or a phase lost: with IDA also a switch missed
+            # inside its guard's noise band near a grazing): approach the boundary instead
+            if stop_on_mode_change or (state["modes"] - modes and stop_on_mode_loss):
                 return RETRY
             special.append(
                 {
@@ -242,6 +245,10 @@ def orbit_branch(
     samples_per_period: int = 256,
 ) -> OrbitBranch:
     """Continue the autonomous orbit ``orbit`` in ``parameter`` (``direction`` +1: increasing).
+
+    The branch goes on through a mode that an orbit gains (a new phase, e.g. both contacts stuck
+    at once; noted in ``special``), and ends at a grazing where a phase vanishes (a mode lost) or,
+    with ``stop_on_mode_change``, at any change of the modes visited.
 
     ``phase`` as in :func:`hybrid._autonomous.autonomous_orbit`; the orbit's own section state is
     the start (for a switch section, ``orbit`` must have been computed on that section).
