@@ -42,6 +42,13 @@ from ._shooting import periodic_orbit as periodic_orbit
 from ._simulate import SimulationError as SimulationError
 from ._simulate import initial_state as initial_state
 from ._simulate import simulate as simulate
+from ._sweep import Axis as Axis
+from ._sweep import SweepResult as SweepResult
+from ._sweep import linear_axis as linear_axis
+from ._sweep import load_sweep as load_sweep
+from ._sweep import log_axis as log_axis
+from ._sweep import model_hash as model_hash
+from ._sweep import sweep as sweep
 from ._system import HybridSystem as HybridSystem
 from ._system import Mode as Mode
 from ._system import ModelError as ModelError

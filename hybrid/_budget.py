@@ -60,6 +60,23 @@ def time_limit(seconds: float) -> Iterator[None]:
         _DEADLINE.reset(token)
 
 
+def current_deadline() -> tuple[float, float] | None:
+    """The deadline in force here, ``(clock time, seconds of its time_limit)``, or None (to be set
+    again in a worker process with :func:`restore_deadline`)."""
+    return _DEADLINE.get()
+
+
+@contextmanager
+def restore_deadline(deadline: tuple[float, float] | None) -> Iterator[None]:
+    """The deadline ``deadline`` (from :func:`current_deadline`) in force inside the block (the
+    clock is the system's monotonic clock, shared by forked processes)."""
+    token = _DEADLINE.set(deadline)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
 def deadline_passed() -> bool:
     """True inside a :func:`time_limit` block whose deadline has passed."""
     d = _DEADLINE.get()

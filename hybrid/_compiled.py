@@ -161,6 +161,8 @@ class CompiledMode:
                 self._gzz_inv = np.linalg.inv(gzz)
         # d g / d t for the derivatives of slave variables.
         self.g_t = [(int(i), comp(diff(e, "t"))) for i, e in self.g_expr.items()]
+        self._ix_ad = np.ix_(self.alg_idx, self.diff_idx)  # blocks of dF/dy for the slave rates
+        self._ix_aa = np.ix_(self.alg_idx, self.alg_idx)
 
         # Guards of transitions leaving this mode.
         guards = []
@@ -197,6 +199,29 @@ class CompiledMode:
             else None
         )
         self.outputs = {o: comp(fold(data["defs"][o])) for o in system.outputs}
+        # all outputs at once on arrays of samples (one column per slot): see outputs_at
+        self._outputs_vec = (
+            compile_many(
+                [fold(data["defs"][o]) for o in system.outputs],
+                slots,
+                f"outputs_{mode.name}",
+                namespace=self._ns,
+                vector=True,
+            )
+            if system.outputs
+            else None
+        )
+
+    def outputs_at(self, t: np.ndarray, Y: np.ndarray) -> list[np.ndarray] | None:
+        """The system's outputs at samples ``(t[i], Y[i])`` of this mode, one array per output (in
+        the order of ``system.outputs``), evaluated elementwise at once; None where a value is not
+        finite (the caller evaluates sample by sample, where the scalar functions say why)."""
+        if self._outputs_vec is None:
+            return []
+        with np.errstate(all="ignore"):
+            vals = self._outputs_vec([t, *Y.T])
+        out = [np.broadcast_to(np.asarray(v, dtype=float), t.shape) for v in vals]
+        return out if all(np.all(np.isfinite(v)) for v in out) else None
 
     def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
         env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
@@ -279,8 +304,9 @@ class CompiledMode:
             J = self.dFdy(t, y)
             v = [t, *np.asarray(y, dtype=float).tolist()]
             gt = np.array([fn(v) for _, fn in self.g_t])
-            rhs = -(J[np.ix_(a, d)] @ yp[d] + gt)
-            yp[a] = np.linalg.solve(J[np.ix_(a, a)], rhs)
+            rhs = -(J[self._ix_ad] @ yp[d] + gt)
+            gzz = J[self._ix_aa]
+            yp[a] = rhs / gzz[0, 0] if a.size == 1 else np.linalg.solve(gzz, rhs)
         return yp
 
     def guard_values(self, t: float, y: np.ndarray) -> np.ndarray:

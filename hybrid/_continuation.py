@@ -30,8 +30,25 @@ import numpy as np
 from ._budget import BudgetExceeded
 from ._expr import free_symbols
 from ._options import ContinuationOptions, SolverOptions
-from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _finish, check_samples, is_family, mode_fractions
-from ._shooting import Shooter, _choose_section_period, _Newton, _scale, solve_orbit
+from ._orbit import (
+    FAMILY_TOL,
+    ORBIT_OPTIONS,
+    PeriodicOrbit,
+    _finish,
+    check_samples,
+    is_family,
+    mode_fractions,
+)
+from ._shooting import (
+    COARSE_RTOL,
+    COARSE_SWITCH,
+    Shooter,
+    _choose_section_period,
+    _coarse,
+    _Newton,
+    _scale,
+    solve_orbit,
+)
 from ._simulate import check_time_range, initial_state
 from ._special import SpecialPoint, detect, locate
 from ._system import HybridSystem
@@ -217,9 +234,15 @@ class _Continuer:
         self.settings = settings
         self.tol = settings.tol
         self.sh = Shooter(system, params, options, free=parameter)
+        # The map at a looser tolerance for the iterations that cannot be accepted (IDA only).
+        self.coarse = _coarse(self.sh, self.tol)
+        self._coarse_jac = True  # the Newton system last seen fit for a coarse M (see correct)
 
     def at(self, p: float) -> None:
-        self.sh.set_params({**self.base, self.parameter: p})
+        params = {**self.base, self.parameter: p}
+        self.sh.set_params(params)
+        if self.coarse is not None:
+            self.coarse.set_params(params)
 
     # scaled coordinates -------------------------------------------------
     def scale_of(self, pt: _Point, d: np.ndarray) -> float:
@@ -253,7 +276,12 @@ class _Continuer:
         return A, rhs, family, gval
 
     def correct(
-        self, pt: _Point, ds: float, samples: int, force_gauge: bool = False, light: bool = False
+        self,
+        pt: _Point,
+        ds: float,
+        samples: int,
+        force_gauge: bool = False,
+        light: bool = False,
     ) -> _Point:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
@@ -264,6 +292,15 @@ class _Continuer:
         shorter step (down to 1/16); if none decreases the residual the step fails (a worse
         iterate is never kept). Converged: residual below ``tol`` and the scaled update below
         ``step_tol`` (or the noise level of the map, ``10 cond rtol``, if larger).
+
+        On the IDA path the iterations that cannot be accepted use the map at a looser tolerance
+        where that is enough: the predicted point is run at ``COARSE_RTOL`` unless its residual
+        there is near that run's noise, and the Newton system of an iterate whose residual is
+        above ``tol`` takes ``M`` from a monodromy at ``COARSE_RTOL`` where it is well
+        conditioned (``COARSE_COND``; last seen so), has a neutral direction or not whichever
+        map it comes from (``_ambiguous``) and, on a family, a gauge of the model's to hold it. An accepted point, its residual, its convergence test and
+        its monodromy are always those of the requested tolerances. A step expected to end at
+        the point (from a residual below ``SAMPLE_AHEAD``) is run with samples at once.
         """
         max_iter = self.settings.max_iter
         nw = _Newton(self.sh, pt.mode)
@@ -277,17 +314,36 @@ class _Continuer:
         y[d] = Xp[:-1]
         p = float(Xp[-1])
         it, prev, lam = 0, None, 1.0
+        # Coarse runs and runs with samples ahead of acceptance only on a model with a gauge: without
+        # one a family of orbits is held by its own direction, from the member nearest the last
+        # point, which may graze a guard; a run of another accuracy or with samples (other steps)
+        # may see that grazing where the requested unsampled run does not, and the branch wanders.
+        gauged = self.sh.gauge(pt.y) is not None
+        coarse = self.coarse if not force_gauge and gauged else None
+        staged = coarse is not None  # the predicted point is run on the coarse map first
+        ahead = False  # run the next iterate with samples (expected to be accepted)
         while True:
             self.at(p)
             T = self.sh.period
             t0 = pt.phi * T
             y = nw.project(t0, y)
-            tr = self.sh.run(y, pt.mode, t0, samples=samples)
+            if staged:
+                tr = self._coarse_run(y, pt.mode, t0)
+                if tr is None:
+                    staged = False  # anything but a plain run: at the requested tolerances
+                    continue
+            elif ahead:
+                tr = self.sh._run(y, pt.mode, t0, samples)
+            else:
+                tr = self.sh.run(y, pt.mode, t0, samples=samples)
             if not tr.success:
                 raise _Fail(f"run failed at {self.parameter}={p:.8g}: {tr.message}")
             r = nw.residual(tr, y)
             scale = _scale(y, d)
             res = float(np.max(np.abs(r))) / scale
+            if staged and (res <= COARSE_SWITCH * COARSE_RTOL or scale > 1e3 * max(sy, 1e-300)):
+                staged = False  # near the coarse map's noise (or far off): the requested map here
+                continue
             if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(sy, 1e-300):
                 raise _Fail(f"the response grows without bound near {self.parameter}={p:.8g}")
             if prev is not None and res > max(prev[2], 1e-3 * self.tol):
@@ -302,20 +358,44 @@ class _Continuer:
                 y = prev[0].copy()
                 y[d] += lam * prev[3][:-1]
                 p = float(prev[1] + lam * prev[3][-1])
+                ahead = False
                 continue
-            Jy, Jp, M = self.jacobian(tr, y, p, pt.mode, pt.phi, nw)
-            A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
+            # The Newton system: from the coarse map's monodromy where that is enough for a step
+            # that cannot be accepted here, else (and always at acceptance) the requested map's.
+            use = coarse is not None and self._coarse_jac and (staged or res > self.tol)
+            for src in (coarse, self.sh) if use else (self.sh,):
+                try:
+                    Jy, Jp, M = self.jacobian(tr, y, p, pt.mode, pt.phi, nw, sh=src)
+                except (*_FAILURES, ZeroDivisionError):
+                    if src is self.sh:
+                        raise
+                    continue  # (a grazing switch): the requested map's
+                A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
+                X = np.concatenate([y[d], [p]])
+                Ab = np.vstack([A, tau / D])
+                rhs = np.concatenate([rhs, [-(tau @ ((X - Xp) / D))]])
+                sv = np.linalg.svd(Ab * D[None, :], compute_uv=False)
+                kappa = sv[0] / max(sv[-1], 1e-300)
+                # (a family held by its own direction, the null vector of I - M, takes it from
+                # the requested map: the coarse one's would move the member held)
+                own = family and gval is not None and self.sh.gauge(y) is None
+                fit = kappa <= COARSE_COND and not own and not _ambiguous(Jy)
+                if coarse is not None:
+                    self._coarse_jac = fit  # the conditioning last seen
+                if src is self.sh or fit:
+                    break
             gauge_ok = gval is None or abs(gval) <= self.tol * scale
-            X = np.concatenate([y[d], [p]])
-            Ab = np.vstack([A, tau / D])
-            rhs = np.concatenate([rhs, [-(tau @ ((X - Xp) / D))]])
             delta = np.linalg.lstsq(Ab, rhs, rcond=1e-10)[0]
             # Converged: small residual and a Newton update at the noise level of the map
             # (integration error amplified by the conditioning of the bordered system).
-            sv = np.linalg.svd(Ab * D[None, :], compute_uv=False)
-            kappa = sv[0] / max(sv[-1], 1e-300)
             step_tol = max(self.settings.step_tol, 10.0 * kappa * self.sh.noise_rtol)
-            if res <= self.tol and gauge_ok and float(np.max(np.abs(delta / D))) <= step_tol:
+            if (
+                src is self.sh
+                and not staged
+                and res <= self.tol
+                and gauge_ok
+                and float(np.max(np.abs(delta / D))) <= step_tol
+            ):
                 if tr.mode_final != pt.mode:
                     raise _Fail("section reached a switch")
                 new = _Point(y, p, pt.mode, pt.phi, iterations=it)
@@ -331,11 +411,26 @@ class _Continuer:
             if it == max_iter:
                 break
             it += 1
+            ahead = gauged and bool(samples) and not light and not staged and res <= SAMPLE_AHEAD
+            staged = False
             prev, lam = (y.copy(), p, res, delta), 1.0
             y = y.copy()
             y[d] += delta[:-1]
             p = float(p + delta[-1])
         raise _Fail(f"corrector did not converge in {max_iter} iterations near {self.parameter}={p:.8g}")
+
+    def _coarse_run(self, y, mode: str, t0: float):
+        """A plain run of the coarse map, or None if it fails (anything but a plain run)."""
+        try:
+            tr = self.coarse.run(y, mode, t0)
+        except _FAILURES:
+            tr = None
+        finally:
+            self.sh.nfev += self.coarse.nfev
+            self.coarse.nfev = 0
+        if tr is None or not tr.success or not np.all(np.isfinite(tr.y_final)):
+            return None
+        return tr
 
     def complete(self, pt: _Point, nw, t0: float, it: int, res: float, samples: int, M) -> PeriodicOrbit:
         """The orbit of a light point: its sampled run and amplitudes (the monodromy ``M`` is known)."""
@@ -343,9 +438,10 @@ class _Continuer:
         tr = self.sh.run(pt.y, pt.mode, t0, samples=samples)
         return _finish(self.sh, nw, pt.y, pt.mode, t0, it, res, self.tol, samples, "", tr=tr, M=M)
 
-    def jacobian(self, tr, y, p, mode, phi, nw):
-        """``(dP/dy_d - I, dP/dp, M)`` at a run ``tr`` from ``(y, p)``."""
-        M = self.sh.monodromy(tr)  # sensitivity variables: states in s, then the parameter
+    def jacobian(self, tr, y, p, mode, phi, nw, sh: Shooter | None = None):
+        """``(dP/dy_d - I, dP/dp, M)`` at a run ``tr`` from ``(y, p)`` (``M`` from ``sh``'s
+        monodromy, by default the requested map's)."""
+        M = (sh or self.sh).monodromy(tr)  # sensitivity variables: states in s, then the parameter
         ns = self.sh.s.size
         My, Mp = M[:ns, :ns], M[:ns, ns]
         T = self.sh.period
@@ -386,6 +482,29 @@ class _Continuer:
 
 class _Fail(Exception):
     pass
+
+
+#: A corrector step from an iterate whose scaled residual is below this is run with samples (its
+#: point is expected to be accepted, and the accepted orbit needs its sampled run).
+SAMPLE_AHEAD = 1e-5
+
+#: Largest condition number of the (scaled) bordered Newton system for which a step may take
+#: ``M`` from the coarse map (about 1e-6 relative error): a bound on the residual it leaves is
+#: ``COARSE_COND x 1e-6`` of the one it starts from, but on the absorber's bands (the bordered
+#: systems' condition 3e2 to 3e3) thresholds from 1e4 to 1e6 give the corrector the same number
+#: of iterations as the requested map's monodromy; ill-conditioned beyond it, the requested one.
+COARSE_COND = 1e5
+
+
+def _ambiguous(Jy: np.ndarray) -> bool:
+    """True if whether ``Jy = M - I`` has a neutral direction (a family, ``FAMILY_TOL``) may depend
+    on an error of about 1e-6 in ``M``: its smallest singular value is neither far below the
+    threshold (a structural family, e.g. the free offset of a component that does not move) nor
+    far above it."""
+    sv = np.linalg.svd(Jy, compute_uv=False)
+    if not sv.size or not sv[0] > 0.0:
+        return True
+    return 1e-3 * FAMILY_TOL * sv[0] < sv[-1] < 1e-4 * sv[0]
 
 
 def _size(o: PeriodicOrbit) -> float:

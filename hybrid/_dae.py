@@ -14,7 +14,6 @@ import sys
 from dataclasses import dataclass
 
 import numpy as np
-from sksundae.ida import IDA
 
 from ._budget import Budget, BudgetExceeded
 from ._compiled import CompiledMode
@@ -24,6 +23,15 @@ __all__ = ["ModeSolver", "StepResult", "SUCCESS", "TSTOP", "ROOT", "explain"]
 
 SUCCESS, TSTOP, ROOT = 0, 1, 2
 UNKNOWN_FLAG = -99
+
+
+def _ida(resfn, opts: dict):
+    """A new ``sksundae.ida.IDA`` object (scikit-sundae is imported on first use: it pulls in
+    scipy.optimize, half a second that a run of the exact integrator never needs)."""
+    from sksundae.ida import IDA
+
+    return IDA(resfn, **opts)
+
 
 #: What a failure flag of IDA means for the model, and what to change.
 _EXPLAIN = {
@@ -183,7 +191,7 @@ class ModeSolver:
             self._events = eventsfn
         else:
             self._events = None
-        self._ida = IDA(resfn, **opts)
+        self._ida = _ida(resfn, opts)
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray) -> None:
         """(Re)initialise at a consistent point ``(t, y, y')``."""
@@ -357,7 +365,7 @@ class SensitivitySolver:
         self._N = N
         self._max_step = max_step
         self.period: float | None = None  # the forcing period, for diagnoses
-        self._ida = IDA(resfn, **opts)
+        self._ida = _ida(resfn, opts)
         self.nfev = 0
 
     def _why_slow(self, budget: Budget, r) -> str:

@@ -611,12 +611,36 @@ def _real_pow(a: float, b: float) -> float:
     return value
 
 
+def _real_pow_array(a, b):
+    """``a ** b`` elementwise on arrays (NaN where it is not a real number: the caller checks)."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return np.power(a, b)
+
+
+#: The functions of :data:`FUNCTIONS` on arrays, elementwise (for ``compile_many(vector=True)``).
+_FUNC_ARRAY: dict[str, Callable] = {
+    "sin": np.sin,
+    "cos": np.cos,
+    "tan": np.tan,
+    "exp": np.exp,
+    "log": np.log,
+    "sqrt": np.sqrt,
+    "sinh": np.sinh,
+    "cosh": np.cosh,
+    "tanh": np.tanh,
+    "atan": np.arctan,
+    "abs": np.abs,
+    "sign": np.sign,
+}
+
 _AST_BINOP = {"add": ast.Add, "sub": ast.Sub, "mul": ast.Mult, "div": ast.Div}
 #: The only names generated code can reach (no builtins).
 _NAMESPACE: dict[str, object] = {
     "__builtins__": {},
     "_real_pow": _real_pow,
+    "_real_pow_array": _real_pow_array,
     **{f"_f_{n}": f for n, f in _FUNC_FLOAT.items()},
+    **{f"_fa_{n}": f for n, f in _FUNC_ARRAY.items()},
 }
 
 
@@ -638,7 +662,13 @@ def set_runtime(namespace: dict, values: Mapping[str, float]) -> None:
 
 
 def compile_many(
-    exprs, slots: Mapping[str, int], name: str = "f", *, scalar: bool = False, namespace: dict | None = None
+    exprs,
+    slots: Mapping[str, int],
+    name: str = "f",
+    *,
+    scalar: bool = False,
+    namespace: dict | None = None,
+    vector: bool = False,
 ) -> Callable:
     """Compile expressions into one function ``f(v) -> tuple of float``.
 
@@ -661,6 +691,11 @@ def compile_many(
     namespace : dict, optional
         A :func:`runtime_namespace`: symbols without a slot that it holds are read from it at
         every call (shared by all functions compiled with it).
+    vector : bool
+        Elementwise on arrays: ``v`` holds one array per slot and the functions are numpy's.
+        Where a scalar function would raise (a logarithm of a negative number, a division by
+        zero) the result holds a non-finite value instead, without a warning: the caller checks.
+        An expression without slot symbols returns a float.
 
     Returns
     -------
@@ -696,13 +731,15 @@ def compile_many(
         if op == "neg":
             value = ast.UnaryOp(ast.USub(), ref(args[0]))
         elif op == "call":
-            value = ast.Call(ast.Name(f"_f_{args[0]}", ast.Load()), [ref(args[1])], [])
+            fn = f"_fa_{args[0]}" if vector else f"_f_{args[0]}"
+            value = ast.Call(ast.Name(fn, ast.Load()), [ref(args[1])], [])
         elif op == "pow":
             a, b = args
             if b.op == "num" and b.args[0] == 2.0:
                 value = ast.BinOp(ref(a), ast.Pow(), ast.Constant(2))
             else:
-                value = ast.Call(ast.Name("_real_pow", ast.Load()), [ref(a), ref(b)], [])
+                pw = "_real_pow_array" if vector else "_real_pow"
+                value = ast.Call(ast.Name(pw, ast.Load()), [ref(a), ref(b)], [])
         else:
             value = ast.BinOp(ref(args[0]), _AST_BINOP[op](), ref(args[1]))
         local = f"_{len(body)}"

@@ -12,15 +12,19 @@ Nothing here knows the model: the resonances come from its equations.
 from __future__ import annotations
 
 import math
+import multiprocessing
+import signal
 from collections.abc import Callable, Mapping
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._budget import deadline_passed
+from ._budget import current_deadline, deadline_passed
+from ._budget import restore_deadline as _deadline
 from ._continuation import Branch, continuation, forcing_parameter
 from ._linear import natural_frequencies
-from ._system import HybridSystem
+from ._system import HybridSystem, shared
 
 __all__ = ["FrequencyResponse", "frequency_response", "default_range"]
 
@@ -60,6 +64,8 @@ class Piece:
         (if needed) the downward run from ``hi``.
     gaps : list of (float, float)
         Parts of ``(lo, hi)`` not covered by any branch.
+    timed_out : bool
+        The deadline of :func:`hybrid.time_limit` passed while it was computed.
     """
 
     lo: float
@@ -67,6 +73,7 @@ class Piece:
     resonance: float | None
     branches: list = field(default_factory=list)
     gaps: list = field(default_factory=list)
+    timed_out: bool = False
 
     @property
     def gap(self) -> tuple | None:
@@ -204,6 +211,7 @@ def frequency_response(
     parameter: str | None = None,
     progress: Callable[[float], None] | None = None,
     on_point: Callable[[int, object], None] | None = None,
+    workers: int = 1,
     **continuation_options,
 ) -> FrequencyResponse:
     """Periodic orbits over a range of the forcing frequency, one piece per resonance.
@@ -222,7 +230,12 @@ def frequency_response(
         Called with the fraction of the range covered (0 to 1).
     on_point : callable, optional
         Called as ``on_point(branch_index, orbit)`` with every orbit as it is accepted (e.g. to
-        write it at once: an interrupted computation keeps what it did).
+        write it at once: an interrupted computation keeps what it did), branch after branch.
+    workers : int
+        Pieces computed at once, each in a process forked from this one (where the platform
+        forks; else one after the other). The result is the same as with one: each piece is
+        computed by the same code from the same start. ``on_point`` is called here, in branch
+        order: the orbits of a piece are passed on as soon as the pieces before it are done.
     **continuation_options
         Passed on to :func:`hybrid.continuation` (``settings``, ``options``, ``ds``, ...).
 
@@ -243,61 +256,169 @@ def frequency_response(
     lo, hi = (float(v) for v in p_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
         raise ValueError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
+    if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
+        raise ValueError(f"`workers` must be an integer >= 1, got {workers!r}")
     res = natural_frequencies(system, params)
     out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
+    cuts = _cuts(lo, hi, res)
+    job = _PieceJob(system, dict(params), parameter, dict(continuation_options))
+    if workers > 1 and len(cuts) > 1 and "fork" in multiprocessing.get_all_start_methods():
+        out.pieces = _parallel(job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point)
+    else:
+        total, done = hi - lo, 0.0
+        for a, b, w in cuts:
+            k0 = len(out.branches)
+            report = (
+                None
+                if progress is None
+                else (lambda f, d=done, a=a, b=b: progress(min(1.0, (d + f * (b - a)) / total)))
+            )
+            sink = None if on_point is None else (lambda j, o, k0=k0: on_point(k0 + j, o))
+            out.pieces.append(job.piece(a, b, w, report, sink))
+            done += b - a
+            if progress is not None:
+                progress(done / total)
+    out.timed_out = any(pc.timed_out for pc in out.pieces)
+    return out
 
-    def sink() -> Callable | None:
-        if on_point is None:
-            return None
-        k = len(out.branches)  # the index of the branch about to be computed
-        return lambda orbit: on_point(k, orbit)
 
-    total = hi - lo
-    done = 0.0
+@dataclass
+class _PieceJob:
+    """What every piece of one frequency response shares (read by forked workers from the parent's
+    memory: nothing of it is pickled)."""
 
-    def report(base: float, length: float) -> Callable[[float], None] | None:
-        if progress is None:
-            return None
-        return lambda f: progress(min(1.0, (base + f * length) / total))
+    system: HybridSystem
+    params: dict
+    parameter: str
+    options: dict
 
-    for a, b, w in _cuts(lo, hi, res):
+    def piece(
+        self,
+        a: float,
+        b: float,
+        w: float | None,
+        progress: Callable[[float], None] | None,
+        on_point: Callable[[int, object], None] | None,
+    ) -> Piece:
+        """The branches over ``(a, b)`` (``progress``: fraction of it covered; ``on_point(j, orbit)``,
+        ``j`` the branch's index in the piece)."""
         piece = Piece(a, b, w)
-        out.pieces.append(piece)
         if deadline_passed():
-            out.timed_out, piece.gaps = True, [(a, b)]
-            continue
+            piece.timed_out, piece.gaps = True, [(a, b)]
+            return piece
 
-        def run(start: float, end: float, covered: float, piece=piece) -> Branch:
-            """A branch from ``start`` towards ``end`` (``covered``: range done before it, for progress)."""
+        def run(start: float, end: float) -> Branch:
+            """A branch from ``start`` towards ``end``."""
+            j = len(piece.branches)
+            covered = abs(start - a) if end > start else abs(end - a)
             br = continuation(
-                system,
-                params,
-                parameter,
+                self.system,
+                self.params,
+                self.parameter,
                 (start, end),
-                progress=report(covered, abs(end - start)),
-                on_point=sink(),
-                **continuation_options,
+                progress=None
+                if progress is None
+                else (lambda f: progress(min(1.0, (covered + f * abs(end - start)) / (b - a)))),
+                on_point=None if on_point is None else (lambda o: on_point(j, o)),
+                **self.options,
             )
             piece.branches.append(br)
-            out.timed_out = out.timed_out or (br.status == "stopped" and deadline_passed())
+            piece.timed_out = piece.timed_out or (br.status == "stopped" and deadline_passed())
             return br
 
         # A start that fails at the end of the range (e.g. a degenerate orbit there), or a branch
         # that stalls at its first point, is retried a little inside it; what lies before is a gap.
         for start in [a] + [a + f * (b - a) for f in NO_START_RETRY]:
-            up = run(start, b, done + (start - a))
+            up = run(start, b)
             stuck = up.reason == "no-start" or (up.reason == "stalled" and len(up.points) <= 1)
             if not stuck or deadline_passed():
                 break
         reach = float(np.max(up.p)) if up.points else a
         if reach < b and deadline_passed():
-            out.timed_out = True
+            piece.timed_out = True
         elif reach < b:
-            run(b, reach, done + (reach - a))
+            run(b, reach)
         piece.gaps = _uncovered(
             a, b, [(float(np.min(br.p)), float(np.max(br.p))) for br in piece.branches if br.points]
         )
-        done += b - a
-        if progress is not None:
-            progress(done / total)
-    return out
+        return piece
+
+
+#: The job of the worker processes of :func:`_parallel` and their channel to the parent (set in the
+#: parent before the workers fork: they read it from its memory).
+_WORKER: dict = {}
+
+
+def _worker_piece(index: int, a: float, b: float, w: float | None, deadline) -> Piece:
+    """Run in a forked worker: piece ``index``, its progress and orbits sent to the parent."""
+    job, queue = _WORKER["job"], _WORKER["queue"]
+    with _deadline(deadline):
+        return job.piece(
+            a,
+            b,
+            w,
+            lambda f: queue.put(("progress", index, f)),
+            lambda j, o: queue.put(("point", index, j, o)),
+        )
+
+
+def _worker_init() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on an interrupt
+
+
+def _parallel(job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress, on_point) -> list[Piece]:
+    """The pieces computed by ``workers`` forked processes; progress and orbits relayed here."""
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.SimpleQueue()
+    shared(job.system)  # the workers' results refer to it
+    _WORKER.update(job=job, queue=queue)
+    pieces: list[Piece | None] = [None] * len(cuts)
+    held: list[list] = [[] for _ in cuts]  # orbits of pieces whose predecessors are not done
+    frac = [0.0] * len(cuts)
+    nxt = 0  # the first piece not passed on completely
+    offset = 0  # branches of the pieces before it
+
+    def relay() -> None:
+        nonlocal nxt, offset
+        while not queue.empty():
+            msg = queue.get()
+            if msg[0] == "progress":
+                frac[msg[1]] = msg[2]
+                if progress is not None:
+                    progress(sum(f * (b - a) for f, (a, b, _) in zip(frac, cuts, strict=True)) / (hi - lo))
+            elif on_point is not None:
+                held[msg[1]].append((msg[2], msg[3]))
+        while nxt < len(cuts):
+            if on_point is not None:
+                for j, o in held[nxt]:
+                    on_point(offset + j, o)
+            held[nxt] = []
+            if pieces[nxt] is None:
+                break
+            offset += len(pieces[nxt].branches)
+            nxt += 1
+
+    deadline = current_deadline()
+    ex = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init)
+    try:
+        futures = {ex.submit(_worker_piece, i, a, b, w, deadline): i for i, (a, b, w) in enumerate(cuts)}
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=0.05, return_when=FIRST_COMPLETED)
+            relay()  # (the orbits a finished piece sent arrive before its result)
+            for f in done:
+                pieces[futures[f]] = f.result()
+            relay()
+    except BaseException:  # an interrupt here, or a worker's error: no worker is left running
+        procs = list((getattr(ex, "_processes", None) or {}).values())
+        for p in procs:
+            p.terminate()
+        ex.shutdown(wait=False, cancel_futures=True)
+        for p in procs:
+            p.join(5.0)
+        raise
+    finally:
+        _WORKER.clear()
+    ex.shutdown()
+    relay()
+    return pieces

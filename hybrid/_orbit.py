@@ -12,7 +12,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ._compiled import CompiledSystem
 from ._options import SolverOptions
@@ -360,6 +359,8 @@ class _Extrema:
             if not self.smooth(a):
                 continue
             t0, t1 = float(self.tr.t[a]), float(self.tr.t[a + 1])
+            from scipy.optimize import minimize_scalar  # a rare fallback: not imported at start-up
+
             try:
                 r = minimize_scalar(
                     lambda t, a=a: -sgn * self.value(name, a, t),
@@ -385,12 +386,21 @@ class _Extrema:
             hi += 1
         return list(range(lo, hi + 1))
 
+    def around(self, k: int) -> list[int]:
+        """:meth:`twins` of ``k``, and of the other end of the period if ``k`` is its first or last sample."""
+        last = len(self.tr.t) - 1
+        ends = [0, last] if k in (0, last) else [k]
+        return sorted({j for e in ends for j in self.twins(e)})
+
     def extremes(self, name: str, x: np.ndarray) -> tuple[float, float]:
         """Largest and smallest value. An extreme sample at a switch is refined on both sides of it:
-        the extremum may lie just after the switch, in the interval next to the other side's sample."""
+        the extremum may lie just after the switch, in the interval next to the other side's sample.
+        The run is one period: its first and last samples are the same state, so an extreme sample
+        at either end is refined on both sides of the wrap (the extremum may lie in the other end's
+        interval)."""
         try:
-            hi = max(self.refine(name, x, j, 1.0) for j in self.twins(int(np.argmax(x))))
-            lo = min(self.refine(name, x, j, -1.0) for j in self.twins(int(np.argmin(x))))
+            hi = max(self.refine(name, x, j, 1.0) for j in self.around(int(np.argmax(x))))
+            lo = min(self.refine(name, x, j, -1.0) for j in self.around(int(np.argmin(x))))
             return hi, lo
         except (ArithmeticError, ValueError, np.linalg.LinAlgError):  # e.g. a slave solve failed
             return _refined_extrema(self.tr.t, x)

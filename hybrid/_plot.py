@@ -31,8 +31,8 @@ def _label(traj: Trajectory, name: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-def _new_figure(figsize: tuple[float, float]) -> Figure:
-    fig = Figure(figsize=figsize, layout="constrained")
+def _new_figure(figsize: tuple[float, float], layout: str | None = "constrained") -> Figure:
+    fig = Figure(figsize=figsize, layout=layout)
     FigureCanvasAgg(fig)
     return fig
 

@@ -10,7 +10,7 @@ __all__ = ["ProgressBar"]
 
 
 class ProgressBar:
-    """Callable ``bar(fraction)`` drawing ``label [#####.....]  42%  3.1 s`` on one line.
+    """Callable ``bar(fraction, detail="")`` drawing ``label [#####.....]  42%  3.1 s  detail`` on one line.
 
     Parameters
     ----------
@@ -30,20 +30,22 @@ class ProgressBar:
         self.enabled = self.stream.isatty() if enabled is None else enabled
         self.width = width
         self.t0 = time.perf_counter()
-        self._last = -1
+        self._last = (-1, "")
 
-    def __call__(self, fraction: float) -> None:
+    def __call__(self, fraction: float, detail: str = "") -> None:
         if not self.enabled:
             return
         fraction = min(max(float(fraction), 0.0), 1.0)
         pct = int(100 * fraction)
-        if pct == self._last:
+        if (pct, detail) == self._last:
             return
-        self._last = pct
+        self._last = (pct, detail)
         filled = int(self.width * fraction)
         bar = "#" * filled + "." * (self.width - filled)
         elapsed = time.perf_counter() - self.t0
-        self.stream.write(f"\r{self.label} [{bar}] {pct:3d}%  {elapsed:5.1f} s")
+        self.stream.write(
+            f"\r{self.label} [{bar}] {pct:3d}%  {elapsed:5.1f} s" + (f"  {detail}\x1b[K" if detail else "")
+        )
         if fraction >= 1.0:
             self.stream.write("\n")
         self.stream.flush()

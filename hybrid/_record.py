@@ -241,6 +241,23 @@ class Recorder:
         if self._k == self.block:
             self.flush()
 
+    def add_many(self, t: np.ndarray, y: np.ndarray, mode: int) -> None:
+        """Record samples ``(t[i], y[i])`` of one mode (as :meth:`add` one by one, in blocks)."""
+        i, n = 0, t.size
+        while i < n:
+            if self.n_total >= self.max_total:
+                self.add(float(t[i]), y[i], mode)  # raises SampleCapReached
+            k = self._k
+            j = min(n, i + self.block - k, i + self.max_total - self.n_total)
+            self._t[k : k + j - i] = t[i:j]
+            self._y[k : k + j - i] = y[i:j]
+            self._m[k : k + j - i] = mode
+            self._k = k + j - i
+            self.n_total += j - i
+            i = j
+            if self._k == self.block:
+                self.flush()
+
     def add_event(self, record: TransitionRecord) -> None:
         """Record one completed switch."""
         if self.sink is not None:

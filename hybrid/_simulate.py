@@ -506,8 +506,16 @@ class _Run:
         if not out:
             return out
         for k, cm in enumerate(self.cs.modes):
-            fns = [(out[o], o, cm.outputs[o]) for o in out]
-            for i in np.flatnonzero(m == k):
+            idx = np.flatnonzero(m == k)
+            if not idx.size:
+                continue
+            vals = cm.outputs_at(t[idx], y[idx])
+            if vals is not None:
+                for o, v in zip(out, vals, strict=True):
+                    out[o][idx] = v
+                continue
+            fns = [(out[o], o, cm.outputs[o]) for o in out]  # sample by sample: which one fails
+            for i in idx:
                 v = [t[i], *y[i].tolist()]
                 for col, o, fn in fns:
                     try:
@@ -705,9 +713,19 @@ class _Run:
         if many is not None:
             j = int(np.searchsorted(s, t, side="right" if inclusive else "left"))
             if j > self.next_sample:
-                Y, m = many(s[self.next_sample : j])
-                for ts, ys in zip(s[self.next_sample : j].tolist(), Y, strict=True):
-                    self.record(ts, ys, m)
+                ts = s[self.next_sample : j]
+                Y, m = many(ts)
+                if self.opt.integrator == "exact" or self.cs.modes[m].alg_idx.size == 0:
+                    for ev in self.events:  # as record(), for all at once (no slave variable to re-solve)
+                        self.rec.add_event(ev)
+                    self.events.clear()
+                    try:
+                        self.rec.add_many(ts, np.asarray(Y, dtype=float), m)
+                    except SampleCapReached as exc:
+                        raise _Stop(Status.MAX_SAMPLES, str(exc)) from None
+                else:
+                    for t_s, ys in zip(ts.tolist(), Y, strict=True):
+                        self.record(t_s, ys, m)
                 self.next_sample = j
             return
         while self.next_sample < s.size and (

@@ -276,9 +276,22 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
         an orbit in between, e.g. one phase of two left, is not the branch's)."""
         return hi[1] if signature(hi[1].view()) == sig_b else b
 
+    def nearest() -> object:
+        """The orbit reported at a located point: the probe with the modes nearest it (the secant's
+        last, within the accuracy of the point: at a grazing both sides meet there), if it is one of
+        the branch's (the signature of ``a`` or ``b``); else :func:`past`. (The probes close in from
+        the side with the modes: the other end of the bracket may lie a whole step away.)"""
+        q = hist[-1][3] if hist else None
+        return q if q is not None and signature(q.view()) in (sig_a, sig_b) else past()
+
     root_prev, fresh = None, False  # fresh: the last probe gave the secant a new point
+    # On a noisy map (IDA) a bracket narrower than NOISY_FLOOR x rtol (relative) is below what its
+    # runs resolve: the phase near the point is shorter than their noise, and probes there graze.
+    floor = 0.0 if power == 2 else NOISY_FLOOR * c.sh.noise_rtol * max(abs(a.p), abs(b.p))
     for _ in range(settings.locate_max_iter):
         p_lo, p_hi = lo[1].p, hi[1].p
+        if floor > tol_p and abs(p_hi - p_lo) <= floor:
+            return _bracket(hi[1], p_lo, p_hi, hist, power, "bracketed to the noise level of the runs")
         if abs(p_hi - p_lo) <= tol_p or hi[0] - lo[0] <= 1e-14 * ds:
             out = _Located(past(), "located", 0.5 * (p_lo + p_hi), (p_lo, p_hi))
             out.accuracy = 0.5 * abs(p_hi - p_lo)
@@ -291,7 +304,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
             inside = min(p_lo, p_hi) - tol_p <= p_root <= max(p_lo, p_hi) + tol_p
             if fresh and root_prev is not None and inside and abs(p_root - root_prev) <= tol_p:
                 iv = (min(p_lo, p_hi, p_root), max(p_lo, p_hi, p_root))
-                out = _Located(past(), "located", p_root, iv)
+                out = _Located(nearest(), "located", p_root, iv)
                 out.accuracy = abs(p_root - root_prev)
                 return out
             root_prev = p_root if inside else None
@@ -307,9 +320,17 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
         for s in tries:
             try:
                 pt = c.correct(a, s, samples, light=True)
-                break
             except fail_types as exc:
                 failure = exc
+                continue
+            if power == 2 and signature(pt.view()) not in (sig_a, sig_b):
+                # Not the branch's: on a noise-free map the modes of a symmetric change go at once;
+                # a probe with part of them (e.g. one slip phase of two, of zero length) is another
+                # solution the corrector found near a turn of the branch (a grazing member of a
+                # neutral family), whose own mode change lies elsewhere (isolator: 3.7e-4 away).
+                failure, pt = f"the corrector found an orbit of another signature at {pt.p:.10g}", None
+                continue
+            break
         if pt is None:
             return _bracket(hi[1], p_lo, p_hi, hist, power, f"corrector failed: {failure}")
         if signature(pt.view()) == sig_a:
@@ -323,6 +344,12 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
             hist.sort(key=lambda h: h[0] * toward)
             hist = hist[-2:]  # the two nearest the side without the modes
     return _bracket(hi[1], lo[1].p, hi[1].p, hist, power, "not located to the tolerance")
+
+
+#: A mode change on a noisy map (IDA) is bracketed down to this multiple of rtol (relative to the
+#: parameter): on the absorber's bands at rtol 1e-10 the next probes, 2e-8 from the point, fail
+#: at a grazing after several Newton attempts and the bracket gains little.
+NOISY_FLOOR = 1e3
 
 
 def _bracket(point, p_lo: float, p_hi: float, hist: list, power: int, note: str) -> _Located:

@@ -223,6 +223,25 @@ def _as_parameters(items) -> tuple[Parameter, ...]:
     return tuple(out)
 
 
+#: Systems shared by reference with worker processes forked from this one (see :func:`shared`).
+_SHARED: dict[int, HybridSystem] = {}
+
+
+def shared(system: HybridSystem) -> None:
+    """Let ``system`` be pickled by reference until the process exits: a process forked after this
+    call (e.g. a worker of :func:`hybrid.frequency_response`) sends results that refer to it, and
+    they unpickle here as the same object. (A system holds compiled code and is not pickled by
+    value.)"""
+    _SHARED[id(system)] = system
+
+
+def _shared_system(key: int) -> HybridSystem:
+    try:
+        return _SHARED[key]
+    except KeyError:
+        raise TypeError("a HybridSystem is unpickled only in the process it was shared from") from None
+
+
 @dataclass(frozen=True)
 class HybridSystem:
     """A hybrid automaton given as data.
@@ -704,6 +723,14 @@ class HybridSystem:
         if missing:
             raise ValueError(f"model `{self.name}`: missing value for parameter(s) {', '.join(missing)}")
         return {p.name: p.check(out[p.name]) for p in self.parameters}
+
+    def __reduce__(self):
+        if _SHARED.get(id(self)) is not self:
+            raise TypeError(
+                f"model `{self.name}`: a HybridSystem is not pickled by value (it holds compiled code); "
+                "it is pickled by reference only between processes forked after hybrid._system.shared(system)"
+            )
+        return (_shared_system, (id(self),))
 
     def preset(self, name: str, **overrides: float) -> dict[str, float]:
         """Parameter values of preset ``name`` with ``overrides`` applied (checked)."""

@@ -296,12 +296,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
     p.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        metavar="N",
+        help="pieces of the range (one per resonance) computed at once, in forked processes (default: "
+        "the number of CPUs; 1: one after the other; the result is the same)",
+    )
+    p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
     )
     _add_budget(p)
 
     sub.add_parser("models", help="list the built-in models")
     _add_show_parser(sub)
+    from ._cli_sweep import add_parsers  # here: it imports this module's helpers
+
+    add_parsers(sub)  # `sweep` and `chart`
     # Subcommands of installed packages: `register(subparsers)` adds one and sets its `handler`.
     for ep in entry_points(group=COMMAND_GROUP):
         if ep.name not in COMMANDS:
@@ -747,7 +758,14 @@ def cmd_frc(args) -> int:
     try:
         with time_limit(args.max_time):
             fr = frequency_response(
-                system, params, (lo, hi), parameter=par, options=options, progress=bar, on_point=on_point
+                system,
+                params,
+                (lo, hi),
+                parameter=par,
+                options=options,
+                progress=bar,
+                on_point=on_point,
+                workers=args.workers or os.cpu_count() or 1,
             )
     except KeyboardInterrupt:
         _info(

@@ -8,6 +8,7 @@ import hybrid._autonomous
 import hybrid._linear
 import hybrid._plothints
 import hybrid._simulate
+import hybrid._sweep
 import hybrid._system
 import hybrid_models.averaging
 import hybrid_models.overlays
@@ -15,6 +16,7 @@ import hybrid_models.overlays
 MODULES = [
     hybrid._autonomous,
     hybrid._simulate,
+    hybrid._sweep,
     hybrid._system,
     hybrid._linear,
     hybrid._plothints,

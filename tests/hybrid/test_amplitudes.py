@@ -89,3 +89,32 @@ def test_an_extremum_just_after_a_switch_is_found():
     assert 1e-3 < switch < 1e-2  # the extremum lies a few ms from a switch
     for n in ("x1", "v1", "x2", "v2", "u"):
         assert o.amplitude[n] == pytest.approx(float(np.max(np.abs(dense[n]))), rel=2e-9), n
+
+
+def test_an_extreme_sample_at_the_end_of_the_period_is_refined_across_the_wrap():
+    # The first and last samples of an orbit are the same state one period apart: an extremum of
+    # `x` next to that sample lies in the interval before the last sample or after the first. Found
+    # by the sweep's closed-form test (issue 10): along this branch half peak-to-peak was up to
+    # 2.7e-4 low where the minimum of `x` fell at the section.
+    from problems import forced_oscillator
+
+    from hybrid import ContinuationOptions, frequency_response
+
+    system, p, _, _ = forced_oscillator(k=0.8)
+    fr = frequency_response(
+        system,
+        p,
+        (0.5, 1.5),
+        options=SolverOptions(integrator="exact"),
+        settings=ContinuationOptions(locate=False),
+    )
+    orbits = [o for b in fr.branches for o in b.points]
+    at_ends = 0
+    for o in orbits:
+        x = np.asarray(o.trajectory["x"])
+        at_ends += np.argmin(x) in (0, x.size - 1) or np.argmax(x) in (0, x.size - 1)
+        w = o.params["Omega"]
+        exact = abs(p["F"] / (p["k"] - p["m"] * w**2 + 1j * p["c"] * w))
+        assert o.half_peak_to_peak["x"] == pytest.approx(exact, rel=1e-8), w
+        assert o.amplitude["x"] == pytest.approx(exact, rel=1e-8), w
+    assert at_ends >= 1  # the case in point occurs on this branch

@@ -355,15 +355,15 @@ def test_leaving_a_band_lands_on_the_gauge_member_not_on_a_grazing_one():
         assert o.amplitude["x2"] == pytest.approx(abs(float(a2)), rel=1e-8)
 
 
-def _slip_boundaries(p: dict, lo: float, hi: float) -> list[float]:
-    """Where the absorber's centred stick orbit reaches the friction level: the closed-form stick
-    amplitude (Eqs. A.1-A.2) meets the structural-change limit A_L (Eq. 5), brentq to 1e-15."""
+def _slip_boundaries(p: dict, lo: float, hi: float, model: str = "absorber") -> list[float]:
+    """Where the damper's centred stick orbit reaches the friction level: the closed-form stick
+    amplitude (Eqs. A.1-A.2) meets the structural-change limit A_L (Eqs. 5, 9), brentq to 1e-15."""
     from scipy.optimize import brentq
 
     from hybrid_models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
 
     def f(w):
-        return abs(float(stick_amplitudes(p, w)[0])) - float(limit_amplitude("absorber", p, w))
+        return abs(float(stick_amplitudes(p, w)[0])) - float(limit_amplitude(model, p, w))
 
     w_res = [w for w in stick_eigenfrequencies(p) if lo < w < hi][0]
     return [brentq(f, lo, w_res - 1e-9, xtol=1e-15), brentq(f, w_res + 1e-9, hi, xtol=1e-15)]
@@ -411,3 +411,30 @@ def test_ida_brackets_of_slip_onset_and_loss_contain_the_closed_form_crossings(w
     for s, ref in zip(changes, _slip_boundaries(p, *window), strict=True):
         lo, hi = s.interval
         assert lo <= ref <= hi and hi - lo <= 1e-6, (s.kind, s.status, s.interval, ref)
+
+
+def test_frc_cli_locates_the_isolators_band_edges_on_the_branch_not_on_a_grazing_member(tmp_path):
+    """`hybrid frc isolator --integrator exact` used to report both losses of slip 3.7e-4 and 1.2e-4
+    rad/s beyond the closed-form band edges, as 'located +-1e-11', with the amplitude of a stick
+    orbit a whole step away: past the edge the probes of the location converged to one-sided
+    grazing orbits (one slip phase of zero length, members of the neutral stick family), not to the
+    branch. Now each mode change is at the closed-form crossing (1e-10), and the orbit reported at
+    it has the amplitude A_L of the structural-change estimate (Eq. 9)."""
+    import csv
+
+    import hybrid_models
+    from hybrid.cli import main
+    from hybrid_models.linear import limit_amplitude
+
+    p = hybrid_models.isolator().preset("standard")
+    code = main(["frc", "isolator", "--integrator", "exact", "--out", str(tmp_path), "--no-plot"])
+    assert code == 0
+    rows = list(csv.DictReader((tmp_path / "frc_special.csv").open()))
+    changes = sorted((float(r["Omega"]), r) for r in rows if r["kind"] in ("mode-gained", "mode-lost"))
+    refs = _slip_boundaries(p, 0.85, 0.86, "isolator") + _slip_boundaries(p, 1.166, 1.175, "isolator")
+    assert len(changes) == 4, [(w, r["kind"]) for w, r in changes]
+    for (w, r), ref in zip(changes, refs, strict=True):
+        assert r["status"] == "located"
+        assert abs(w - ref) <= 1e-10, (r["kind"], w, ref)
+        a_l = float(limit_amplitude("isolator", p, ref))
+        assert abs(float(r["amplitude_x1"]) - a_l) <= 1e-6 * a_l, (r["kind"], r["amplitude_x1"], a_l)

@@ -184,3 +184,52 @@ def test_a_crossing_found_at_a_step_end_is_located():
     assert resolved == 19
     t_zeno = 3 * t1  # t1 (1 + 2e/(1 - e)) with e = 0.5
     assert abs(tr.t_final - t_zeno) <= 1e-5
+
+
+def _with_output(expr: str) -> HybridSystem:
+    return HybridSystem(
+        name="toy",
+        variables=["x"],
+        parameters=["W"],
+        modes=[Mode("a", derivatives={"x": "-W*x"})],
+        transitions=[],
+        definitions={"o": expr},
+        outputs=["o"],
+        initial_mode="a",
+    )
+
+
+@pytest.mark.parametrize(
+    "expr",
+    ["log(x)", "sqrt(x)*exp(-t) + abs(x - 0.5)*sign(x - 0.5) + atan(x)/cosh(x)", "x**1.5 + tan(x)*W", "W"],
+)
+def test_sampled_outputs_evaluated_at_once_equal_the_scalar_functions(expr):
+    """Outputs of the samples are evaluated elementwise on arrays (numpy's functions); each value
+    equals the generated scalar function's at that sample (math's functions) to rounding, and an
+    output without a state symbol (a constant) fills every sample."""
+    from hybrid._compiled import CompiledSystem
+
+    system = _with_output(expr)
+    for integrator in ("ida", "exact"):
+        tr = simulate(
+            system,
+            {"W": 0.7},
+            (0.0, 3.0),
+            {"x": 2.0},
+            t_eval=np.linspace(0.0, 3.0, 301),
+            options=SolverOptions(integrator=integrator),
+        )
+        assert tr.success, tr.message
+        fn = CompiledSystem(system, {"W": 0.7}).modes[0].outputs["o"]
+        ref = np.array([fn([t, x]) for t, x in zip(tr.t, tr["x"], strict=True)])
+        np.testing.assert_allclose(tr["o"], ref, rtol=1e-14, atol=0.0)
+
+
+def test_an_output_that_cannot_be_evaluated_at_a_sample_is_named_with_its_time():
+    """Where an elementwise value is not finite the samples are evaluated one by one, so the
+    failure names the output, the mode and the time, as before (log of a negative number)."""
+    system = _with_output("log(x - 1)")  # x = 2 exp(-t) falls below 1 at t = log 2
+    tr = simulate(system, {"W": 1.0}, (0.0, 1.0), {"x": 2.0}, t_eval=np.linspace(0.0, 1.0, 11), throw=False)
+    assert tr.status == Status.EVALUATION_FAILED
+    assert tr.message.startswith("evaluating output `o` of mode `a` at t=0.7")
+    assert "ValueError" in tr.message

@@ -1,0 +1,83 @@
+"""Pieces of a frequency response computed at once in forked worker processes."""
+
+import multiprocessing
+import pickle
+
+import numpy as np
+import pytest
+
+import hybrid_models
+from hybrid import SolverOptions, frequency_response
+
+EXACT = SolverOptions(integrator="exact")
+RANGE = (0.85, 1.175)  # both resonances of the absorber: two pieces
+
+
+def test_two_workers_give_the_same_curve_and_the_same_orbits_in_the_same_order():
+    """Each piece is computed by the same code from the same start, so the result is identical
+    (not merely close) to the serial one, and ``on_point`` sees the same orbits in branch order."""
+    system = hybrid_models.absorber()
+    p = system.preset("standard")
+    runs = {}
+    for workers in (1, 2):
+        seen, fractions = [], []
+        fr = frequency_response(
+            system,
+            p,
+            RANGE,
+            options=EXACT,
+            workers=workers,
+            on_point=lambda k, o, seen=seen: seen.append((k, o.params["Omega"], o.amplitude["x1"])),
+            progress=fractions.append,
+        )
+        assert len(fr.pieces) == 2 and not fr.gaps, fr.messages()
+        assert fractions and fractions[-1] == pytest.approx(1.0) and max(fractions) <= 1.0
+        runs[workers] = (seen, fr)
+    (seen1, fr1), (seen2, fr2) = runs[1], runs[2]
+    assert seen1 == seen2
+    assert [k for k, _, _ in seen2] == sorted(k for k, _, _ in seen2)
+    assert len(fr1.branches) == len(fr2.branches)
+    for b1, b2 in zip(fr1.branches, fr2.branches, strict=True):
+        np.testing.assert_array_equal(b1.p, b2.p)
+        assert [o.amplitude for o in b1.points] == [o.amplitude for o in b2.points]
+        assert [(s.kind, s.parameter, s.interval) for s in b1.special] == [
+            (s.kind, s.parameter, s.interval) for s in b2.special
+        ]
+    assert all(o.system is system for b in fr2.branches for o in b.points)  # the parent's own model
+
+
+def test_an_interrupt_stops_the_workers_and_keeps_the_orbits_passed_on():
+    system = hybrid_models.absorber()
+    seen = []
+    calls = {"n": 0}
+
+    def progress(fraction):
+        calls["n"] += 1
+        if calls["n"] == 20:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        frequency_response(
+            system,
+            system.preset("standard"),
+            RANGE,
+            options=EXACT,
+            workers=2,
+            progress=progress,
+            on_point=lambda k, o: seen.append(k),
+        )
+    assert multiprocessing.active_children() == []
+    assert seen == sorted(seen)
+
+
+def test_a_model_is_not_pickled_by_value():
+    system = hybrid_models.coulomb()
+    with pytest.raises(TypeError, match="not pickled by value"):
+        pickle.dumps(system)
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2"])
+def test_workers_must_be_a_positive_integer(workers):
+    system = hybrid_models.coulomb()
+    with pytest.raises(ValueError, match="`workers` must be an integer >= 1"):
+        frequency_response(system, system.preset("forced"), (0.5, 0.6), workers=workers)
