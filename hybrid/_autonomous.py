@@ -153,7 +153,7 @@ class AutonomousSolver:
             res = float(np.max(np.abs(r))) / scale
             A = self.jacobian(ev, d, pos, anchor)
             step = np.linalg.lstsq(A, -r, rcond=None)[0]
-            if res <= self.tol and float(np.max(np.abs(step[: n_d(d)]))) <= self.tol * scale:
+            if res <= self.tol and float(np.max(np.abs(step[: d.size]))) <= self.tol * scale:
                 if ev.end_mode != mode:
                     return y, T, ev, it, res, f"the orbit ends in mode `{ev.end_mode}`, not `{mode}`"
                 return y, T, ev, it, res, ""
@@ -194,10 +194,6 @@ class AutonomousSolver:
             res,
             f"Newton's method did not converge ({self.max_iter} iterations, residual {res:.3g})",
         )
-
-
-def n_d(d: np.ndarray) -> int:
-    return int(d.size)
 
 
 #: The return to the section is sought within this multiple of the period estimate.
