@@ -6,11 +6,20 @@ transitions and resets. :func:`simulate` integrates it event-driven, with the
 slave (algebraic) variables of each mode solved as a DAE by IDA.
 """
 
+from ._autobranch import EquilibriumBranch as EquilibriumBranch
+from ._autobranch import OrbitBranch as OrbitBranch
+from ._autobranch import equilibrium_branch as equilibrium_branch
+from ._autobranch import hopf_branch as hopf_branch
+from ._autobranch import orbit_branch as orbit_branch
+from ._autonomous import autonomous_orbit as autonomous_orbit
 from ._budget import time_limit as time_limit
 from ._continuation import Branch as Branch
 from ._continuation import SpecialPoint as SpecialPoint
 from ._continuation import continuation as continuation
 from ._continuation import forcing_parameter as forcing_parameter
+from ._equilibria import Equilibrium as Equilibrium
+from ._equilibria import equilibrium as equilibrium
+from ._equilibria import locate_hopf as locate_hopf
 from ._expr import FUNCTIONS as FUNCTIONS
 from ._expr import ExpressionError as ExpressionError
 from ._filippov import filippov_system as filippov_system
@@ -24,6 +33,7 @@ from ._options import ContinuationOptions as ContinuationOptions
 from ._options import SolverOptions as SolverOptions
 from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
 from ._orbit import PeriodicOrbit as PeriodicOrbit
+from ._palc import PalcSettings as PalcSettings
 from ._plothints import plot_hints as plot_hints
 from ._progress import ProgressBar as ProgressBar
 from ._record import Envelope as Envelope

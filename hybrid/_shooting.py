@@ -345,6 +345,20 @@ def periodic_orbit(
     ValueError
         Bad input (before any integration).
     """
+    if isinstance(system, HybridSystem) and system.period is None:
+        from ._autonomous import autonomous_orbit  # no forcing: the period is an unknown (a layer above)
+
+        return autonomous_orbit(
+            system,
+            params,
+            x0,
+            mode0,
+            transient_periods=max(transient_periods, 1),
+            options=options,
+            tol=tol,
+            max_iter=max_iter,
+            samples_per_period=samples_per_period,
+        )
     options = ORBIT_OPTIONS if options is None else options
     _check_inputs(system, options, tol, max_iter, transient_periods)
     check_samples(samples_per_period)

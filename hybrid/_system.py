@@ -648,11 +648,15 @@ class HybridSystem:
                 f"{pre}: [orbit] `stick_modes` is no longer read: every orbit reports the fraction of the "
                 "period in each mode (`mode_fractions`; columns `fraction_<mode>` of frc.csv); remove the key"
             )
-        unknown = set(self.orbit) - {"gauge"}
+        unknown = set(self.orbit) - {"gauge", *_AUTONOMOUS_ORBIT_KEYS}
         if unknown:
             raise ModelError(
-                f"{pre}: [orbit] has unknown key(s) {', '.join(sorted(unknown))}; allowed: gauge"
+                f"{pre}: [orbit] has unknown key(s) {', '.join(sorted(unknown))}; "
+                f"allowed: gauge, {', '.join(_AUTONOMOUS_ORBIT_KEYS)}"
             )
+        from ._autonomous_hints import validate_hints  # the hints of autonomous orbits (their own module)
+
+        self._set_cache("autonomous", validate_hints(self, pre))
         gauge = self.orbit.get("gauge")
         if gauge is None:
             self._set_cache("gauge", None)
@@ -786,6 +790,10 @@ class HybridSystem:
                 f"model `{self.name}`: forcing period {self.period!r} evaluates to {value!r}; it must be finite and > 0"
             )
         return value
+
+
+#: ``[orbit]`` keys read by autonomous periodic orbits (:mod:`hybrid._autonomous_hints`).
+_AUTONOMOUS_ORBIT_KEYS = ("section", "period_guess")
 
 
 class _Expander:

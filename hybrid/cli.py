@@ -546,6 +546,7 @@ def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
     omega = orbit.params.get("Omega")
     head = f"{system.name}" + (f", preset `{preset}`" if preset else "")
     head += (f", Omega = {omega:g} rad/s" if omega is not None else "") + f": period T = {orbit.period:.9g} s"
+    head += " (autonomous: the period is an unknown, found with the orbit)" if system.period is None else ""
     lines = [head]
     if not orbit.converged:
         lines.append(f"  NO periodic orbit: {orbit.message}")
@@ -588,8 +589,6 @@ def _orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
 def cmd_orbit(args) -> int:
     system = resolve_model(args.model)
     spp = _samples_per_period(args)
-    if system.period is None:
-        raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
     preset, params = _parameters(system, args)
     mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
     if mode0 is None:

@@ -16,7 +16,7 @@ from importlib import resources
 
 from hybrid import HybridSystem, load_system
 
-__all__ = ["absorber", "isolator", "coulomb", "coulomb_sign", "belt_sign", "BUILTIN"]
+__all__ = ["absorber", "isolator", "coulomb", "coulomb_sign", "belt", "belt_stribeck", "belt_damper", "belt_sign", "BUILTIN"]
 
 
 @cache
@@ -50,6 +50,21 @@ def belt_sign() -> HybridSystem:
     return _load("belt_sign")
 
 
+def belt() -> HybridSystem:
+    """Mass on a moving belt, Coulomb friction with stiction (autonomous); presets ``standard``, ``damped``."""
+    return _load("belt")
+
+
+def belt_stribeck() -> HybridSystem:
+    """Mass on a moving belt, Stribeck friction (autonomous); preset ``standard``."""
+    return _load("belt_stribeck")
+
+
+def belt_damper() -> HybridSystem:
+    """The Stribeck belt oscillator with the sequential friction-spring damper attached (autonomous); preset ``standard``."""
+    return _load("belt_damper")
+
+
 #: Built-in model factories by name.
 BUILTIN = {
     "absorber": absorber,
@@ -57,4 +72,7 @@ BUILTIN = {
     "coulomb": coulomb,
     "coulomb_sign": coulomb_sign,
     "belt_sign": belt_sign,
+    "belt": belt,
+    "belt_stribeck": belt_stribeck,
+    "belt_damper": belt_damper,
 }

@@ -4,6 +4,7 @@ import doctest
 
 import pytest
 
+import hybrid._autonomous
 import hybrid._linear
 import hybrid._plothints
 import hybrid._simulate
@@ -13,6 +14,7 @@ import hybrid_models.averaging
 import hybrid_models.overlays
 
 MODULES = [
+    hybrid._autonomous,
     hybrid._simulate,
     hybrid._sweep,
     hybrid._system,
