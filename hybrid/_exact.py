@@ -825,6 +825,7 @@ class ExactModeSolver:
         self._quad_call = self.quad
         # A full step taken past the last output (no crossing in it): (t0, z0, q0, t1, z1, q1, [prep]).
         self._pending: tuple | None = None
+        self._stepped = False
 
     # ------------------------------------------------------------------
     def _advance(self, z: np.ndarray, quad: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -858,6 +859,7 @@ class ExactModeSolver:
         self._t_call, self._z_call, self._quad_call = self.t, self.z.copy(), self.quad.copy()
         self.nfev_last = self.njev_last = 0
         self._pending = None
+        self._stepped = False  # a step taken since start (see _crossings)
 
     def _first_root(self, z: np.ndarray, h: float) -> tuple[float, int] | None:
         """Earliest crossing in ``(0, h]`` of an armed guard in its direction: ``(s, guard)``."""
@@ -873,7 +875,7 @@ class ExactModeSolver:
         near = np.abs(C @ _VANDER.T).min(axis=1) <= (0.5 / (_GRID.size - 1)) * (A @ _DEGREES)
         best = None
         for k in np.flatnonzero(self.armed & near & (mag > 0.0)):
-            for r in self._crossings(C[k], self._direction[k], float(mag[k])):
+            for r in self._crossings(C[k], self._direction[k], float(mag[k]), self._stepped):
                 if best is None or r < best[0]:
                     best = (r, int(k))
                 break  # crossings come sorted: the first counts
@@ -882,8 +884,12 @@ class ExactModeSolver:
         return best[0] * h, best[1]
 
     @staticmethod
-    def _crossings(c: np.ndarray, direction: int, mag: float) -> list[float]:
-        """Sign changes of the polynomial ``c`` (monomial, variable in [0, 1]) in (0, 1], sorted.
+    def _crossings(c: np.ndarray, direction: int, mag: float, stepped: bool = False) -> list[float]:
+        """Sign changes of the polynomial ``c`` (monomial, variable in [0, 1]) in (0, 1], sorted;
+        with ``stepped`` (not the first step since :meth:`start`) also within 1e-12 of 0, where the
+        polynomial starts on the safe side or at zero and leaves it in the guard's direction: a
+        crossing on the boundary of two steps, which the earlier step's end did not count (its value
+        there rounded to the safe side).
 
         Roots from the colleague matrix of its Chebyshev series on [0, 1] (a fixed linear map of
         the monomial coefficients).
@@ -905,7 +911,14 @@ class ExactModeSolver:
             v_lo = float(c @ lo ** _DEGREES[:m])
             v_hi = float(c @ hi ** _DEGREES[:m])
             if r <= tiny:
-                continue  # a root at the start belongs to the previous step (or is disarmed)
+                # A root at the start: at a segment's start a guard at zero is disarmed or taken
+                # by the engine; later, a crossing exactly on the boundary of two steps.
+                c0 = float(c[0])  # (within 1e-12 of the root: zero to the guard's rounding)
+                if stepped and (
+                    (direction >= 0 and c0 <= 0.0 < v_hi) or (direction <= 0 and c0 >= 0.0 > v_hi)
+                ):
+                    out.append(r)
+                continue
             rising = v_lo < 0.0 < v_hi or (v_lo <= 0.0 < v_hi and abs(v_lo) <= 1e-15 * mag)
             falling = v_lo > 0.0 > v_hi or (v_lo >= 0.0 > v_hi and abs(v_lo) <= 1e-15 * mag)
             if (direction >= 0 and rising) or (direction <= 0 and falling):
@@ -978,6 +991,7 @@ class ExactModeSolver:
                 return self._result(ROOT, t1, z1, q1, (k,))
             z1, q1 = self._advance(z, quad, h)
             self.nfev_last += 1
+            self._stepped = True
             t1 = t + h if t + h < float(tstop) else float(tstop)
             self._fix_forcing(t1, z1)
             if one_step:

@@ -16,7 +16,17 @@ from importlib import resources
 
 from hybrid import HybridSystem, load_system
 
-__all__ = ["absorber", "isolator", "coulomb", "coulomb_sign", "belt", "belt_stribeck", "belt_damper", "belt_sign", "BUILTIN"]
+__all__ = [
+    "absorber",
+    "isolator",
+    "coulomb",
+    "coulomb_sign",
+    "belt",
+    "belt_stribeck",
+    "belt_damper",
+    "belt_sign",
+    "BUILTIN",
+]
 
 
 @cache

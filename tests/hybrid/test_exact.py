@@ -416,3 +416,25 @@ def test_a_simulation_sampled_per_period_runs_on_the_exact_integrator(spp):
     assert ex.t.size == 20 * spp + 1
     np.testing.assert_array_equal(ex.t, ida.t)
     np.testing.assert_allclose(ex["x"], ida["x"], rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("max_step", [0.1, 0.125, 0.13])
+def test_a_crossing_on_the_boundary_of_two_steps_is_taken(max_step):
+    """The belt's mass sticks from rest (x = v_b t) until the spring force k x reaches the static
+    level Fs: break-away at t = Fs / (k v_b) = 2 s, which is the end of a step when the step is
+    0.1 or 0.125 s. The earlier step's value there rounded to the safe side (-1e-15) and the later
+    step's root, 2e-14 after its start, was taken as the earlier step's: the crossing was never
+    taken and the mass rode the belt for ever (found by the issue-11 helper)."""
+    system = hybrid_models.belt()
+    p = system.preset("standard")
+    t_break = p["Fs"] / (p["k"] * p["v_b"])
+    assert t_break == pytest.approx(2.0)
+    tr = simulate(
+        system,
+        p,
+        (0.0, 10.0),
+        dict.fromkeys(system.variable_names, 0.0),
+        options=SolverOptions(integrator="exact", max_step=max_step),
+    )
+    assert tr.success and tr.events, tr.message
+    assert abs(tr.events[0].t - t_break) <= 1e-12
