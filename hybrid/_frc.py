@@ -15,7 +15,6 @@ import math
 import multiprocessing
 import signal
 from collections.abc import Callable, Mapping
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -349,25 +348,28 @@ class _PieceJob:
 _WORKER: dict = {}
 
 
-def _worker_piece(index: int, a: float, b: float, w: float | None, deadline) -> Piece:
-    """Run in a forked worker: piece ``index``, its progress and orbits sent to the parent."""
-    job, queue = _WORKER["job"], _WORKER["queue"]
-    with _deadline(deadline):
-        return job.piece(
-            a,
-            b,
-            w,
-            lambda f: queue.put(("progress", index, f)),
-            lambda j, o: queue.put(("point", index, j, o)),
-        )
-
-
-def _worker_init() -> None:
+def _worker_main(index: int, a: float, b: float, w: float | None, deadline) -> None:
+    """A forked worker: piece ``index``; its progress, its orbits and then the piece (or the error
+    that stopped it) sent to the parent."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on an interrupt
+    job, queue = _WORKER["job"], _WORKER["queue"]
+    try:
+        with _deadline(deadline):
+            piece = job.piece(
+                a,
+                b,
+                w,
+                lambda f: queue.put(("progress", index, f)),
+                lambda j, o: queue.put(("point", index, j, o)),
+            )
+        queue.put(("done", index, piece))
+    except BaseException as exc:  # noqa: BLE001 - sent to the parent, which raises it
+        queue.put(("error", index, f"{type(exc).__name__}: {exc}"))
 
 
 def _parallel(job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress, on_point) -> list[Piece]:
-    """The pieces computed by ``workers`` forked processes; progress and orbits relayed here."""
+    """The pieces computed by up to ``workers`` forked processes at once (one process per piece);
+    progress and orbits relayed here. On an interrupt or an error every worker is stopped."""
     ctx = multiprocessing.get_context("fork")
     queue = ctx.SimpleQueue()
     shared(job.system)  # the workers' results refer to it
@@ -377,18 +379,26 @@ def _parallel(job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress
     frac = [0.0] * len(cuts)
     nxt = 0  # the first piece not passed on completely
     offset = 0  # branches of the pieces before it
+    running: dict[int, multiprocessing.process.BaseProcess] = {}
+    todo = list(range(len(cuts)))
+    deadline = current_deadline()
 
-    def relay() -> None:
+    def handle(msg) -> None:
         nonlocal nxt, offset
-        while not queue.empty():
-            msg = queue.get()
-            if msg[0] == "progress":
-                frac[msg[1]] = msg[2]
-                if progress is not None:
-                    progress(sum(f * (b - a) for f, (a, b, _) in zip(frac, cuts, strict=True)) / (hi - lo))
-            elif on_point is not None:
-                held[msg[1]].append((msg[2], msg[3]))
-        while nxt < len(cuts):
+        kind, i = msg[0], msg[1]
+        if kind == "progress":
+            frac[i] = msg[2]
+            if progress is not None:
+                progress(sum(f * (b - a) for f, (a, b, _) in zip(frac, cuts, strict=True)) / (hi - lo))
+        elif kind == "point":
+            if on_point is not None:
+                held[i].append((msg[2], msg[3]))
+        elif kind == "done":
+            pieces[i] = msg[2]
+            running.pop(i).join()
+        else:
+            raise RuntimeError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
+        while nxt < len(cuts):  # orbits of the pieces whose predecessors are done, in branch order
             if on_point is not None:
                 for j, o in held[nxt]:
                     on_point(offset + j, o)
@@ -398,27 +408,28 @@ def _parallel(job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress
             offset += len(pieces[nxt].branches)
             nxt += 1
 
-    deadline = current_deadline()
-    ex = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init)
     try:
-        futures = {ex.submit(_worker_piece, i, a, b, w, deadline): i for i, (a, b, w) in enumerate(cuts)}
-        pending = set(futures)
-        while pending:
-            done, pending = wait(pending, timeout=0.05, return_when=FIRST_COMPLETED)
-            relay()  # (the orbits a finished piece sent arrive before its result)
-            for f in done:
-                pieces[futures[f]] = f.result()
-            relay()
-    except BaseException:  # an interrupt here, or a worker's error: no worker is left running
-        procs = list((getattr(ex, "_processes", None) or {}).values())
-        for p in procs:
-            p.terminate()
-        ex.shutdown(wait=False, cancel_futures=True)
-        for p in procs:
-            p.join(5.0)
-        raise
+        while todo or running:
+            while todo and len(running) < workers:
+                i = todo.pop(0)
+                a, b, w = cuts[i]
+                p = ctx.Process(target=_worker_main, args=(i, a, b, w, deadline), daemon=True)
+                p.start()
+                running[i] = p
+            if queue._reader.poll(0.05):  # (SimpleQueue's pipe: a timeout, unlike get())
+                handle(queue.get())
+            else:
+                dead = [i for i, p in running.items() if p.exitcode is not None]
+                if dead and not queue._reader.poll(0.1):
+                    i = dead[0]
+                    raise RuntimeError(
+                        f"frequency response: the worker of piece {i} ended without a result "
+                        f"(exit code {running[i].exitcode})"
+                    )
     finally:
+        for p in running.values():  # an interrupt here, or an error: no worker is left running
+            p.terminate()
+        for p in running.values():
+            p.join(5.0)
         _WORKER.clear()
-    ex.shutdown()
-    relay()
     return pieces
