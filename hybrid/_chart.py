@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ._io import to_json, write_rows_csv
+from ._plot import _new_figure
 from ._sweep import SweepResult
 
 __all__ = ["chart_rows", "optimum", "plot_plane", "plot_lines", "write_charts"]
@@ -117,10 +118,6 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Patch
 
@@ -130,7 +127,8 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     ax_x, ax_y = res.axes[ix], res.axes[iy]
     X, Y = np.meshgrid(ax_x.values, ax_y.values)
     peak, code = _grid(res, ix, iy)
-    fig, ax = plt.subplots(figsize=(7.5, 5.6), layout="constrained")
+    fig = _new_figure((7.5, 5.6))  # (no pyplot: the user's backend is left alone)
+    ax = fig.add_subplot()
     handles = []
     finite = peak[np.isfinite(peak)]
     if finite.size >= 2 and finite.max() > finite.min():
@@ -207,7 +205,6 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     if handles:
         ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=8, ncol=1)
     fig.savefig(path, dpi=130)
-    plt.close(fig)
     return Path(path)
 
 
@@ -231,10 +228,7 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     -------
     Path
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib import colormaps
 
     ix, iy = _order(res, x)
     ax_x = res.axes[ix]
@@ -243,8 +237,9 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
         series = [(None, peak, code)]
     else:
         series = [(v, peak[j], code[j]) for j, v in enumerate(res.axes[iy].values)]
-    fig, ax = plt.subplots(figsize=(7.5, 5.0), layout="constrained")
-    cmap = plt.get_cmap("plasma")
+    fig = _new_figure((7.5, 5.0))
+    ax = fig.add_subplot()
+    cmap = colormaps["plasma"]
     xs = np.asarray(ax_x.values)
     top = np.nanmax(peak) if np.isfinite(peak).any() else 1.0
     for k, (v, p, c) in enumerate(series):
@@ -293,7 +288,6 @@ def plot_lines(res: SweepResult, path: str | Path, x: str | None = None) -> Path
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2 if len(series) > 6 else 1)
     fig.savefig(path, dpi=130)
-    plt.close(fig)
     return Path(path)
 
 
