@@ -224,7 +224,10 @@ class _SweepBar:
 def cmd_sweep(args) -> int:
     system = resolve_model(args.model)
     if system.period is None:
-        raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+        raise UsageError(
+            f"model `{system.name}` declares no forcing `period`: a sweep of frequency responses needs one "
+            f"(an autonomous model is continued with `hybrid cont`)"
+        )
     axes = parse_axes(args.axes)
     preset, params = _parameters(system, args)
     p_range = None

@@ -153,7 +153,10 @@ def forcing_parameter(system: HybridSystem) -> str:
     """
     pe = system._cache.get("period")
     if pe is None:
-        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+        raise ValueError(
+            f"model `{system.name}` declares no forcing `period`: this continuation of forced orbits needs "
+            "one (an autonomous model's orbits: hybrid.orbit_branch, hybrid.hopf_branch, `hybrid cont`)"
+        )
     names = sorted(free_symbols(pe) & set(system.parameter_names))
     if len(names) != 1:
         raise ValueError(

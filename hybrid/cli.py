@@ -715,7 +715,11 @@ def cmd_frc(args) -> int:
 
     system = resolve_model(args.model)
     if system.period is None:
-        raise UsageError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+        raise UsageError(
+            f"model `{system.name}` declares no forcing `period`: a frequency response needs one; an "
+            f"autonomous model's periodic orbits and equilibria are continued with "
+            f"`hybrid cont {system.name} --param NAME --range A B`"
+        )
     forcing = forcing_parameter(system)
     par = args.parameter if args.parameter is not None else forcing
     if par not in system.parameter_names:

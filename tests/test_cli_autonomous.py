@@ -60,3 +60,10 @@ def test_cont_refuses_bad_input(tmp_path, capsys):
         ["cont", "coulomb", "--param", "F", "--range", "0", "1", "--out", str(tmp_path)], capsys
     )
     assert code == 2 and "periodically forced" in err
+
+
+def test_frc_of_an_autonomous_model_points_to_cont(tmp_path, capsys):
+    code, out, err = run(["frc", "belt", "--out", str(tmp_path)], capsys)
+    assert code == 2 and out == ""
+    assert "declares no forcing `period`" in err and "hybrid cont belt --param NAME --range A B" in err
+    assert "Traceback" not in err
