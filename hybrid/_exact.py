@@ -164,6 +164,17 @@ class AffineMode:
             yp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, z)
         return yp
 
+    def second_derivatives(self, z: np.ndarray) -> np.ndarray:
+        """``y''`` at ``z``, exactly: ``P M^2 z``; quadrature rows ``z^T Q_j M z + (M z)^T Q_j z``."""
+        PMM = self.__dict__.get("_PMM")
+        if PMM is None:
+            PMM = self.__dict__["_PMM"] = self.P @ self.M @ self.M
+        ypp = PMM @ z
+        if self.q.size:
+            mz = self.M @ z
+            ypp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, mz) + np.einsum("j,qjk,k->q", mz, self.Q, z)
+        return ypp
+
 
 def _phase_nodes(
     exprs: list[Expr], where: str, params: frozenset, first: int
@@ -871,6 +882,9 @@ class ExactModeSolver:
         C = (self._T @ z) * scale  # (ng, K+1): guards as polynomials in s/h on [0, 1]
         A = np.abs(C)
         mag = A.sum(axis=1)
+        a0 = A[:, 0]
+        if np.all((a0 > mag - a0) | ~self.armed):
+            return None  # |p(s)| >= |c_0| - sum_j>0 |c_j| > 0 on [0, 1] for every armed guard
         # cannot vanish on [0, 1]: |p| at 17 nodes exceeds what its slope bound allows in between
         near = np.abs(C @ _VANDER.T).min(axis=1) <= (0.5 / (_GRID.size - 1)) * (A @ _DEGREES)
         best = None

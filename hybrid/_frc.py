@@ -211,6 +211,7 @@ def frequency_response(
     progress: Callable[[float], None] | None = None,
     on_point: Callable[[int, object], None] | None = None,
     workers: int = 1,
+    while_computing: Callable[[], None] | None = None,
     **continuation_options,
 ) -> FrequencyResponse:
     """Periodic orbits over a range of the forcing frequency, one piece per resonance.
@@ -235,6 +236,10 @@ def frequency_response(
         forks; else one after the other). The result is the same as with one: each piece is
         computed by the same code from the same start. ``on_point`` is called here, in branch
         order: the orbits of a piece are passed on as soon as the pieces before it are done.
+    while_computing : callable, optional
+        With worker processes: called once here, after the last of them has started (nothing is
+        forked after it), e.g. to start importing in a thread what the caller needs afterwards
+        while the workers compute. Not called when the pieces are computed in this process.
     **continuation_options
         Passed on to :func:`hybrid.continuation` (``settings``, ``options``, ``ds``, ...).
 
@@ -262,7 +267,9 @@ def frequency_response(
     cuts = _cuts(lo, hi, res)
     job = _PieceJob(system, dict(params), parameter, dict(continuation_options))
     if workers > 1 and len(cuts) > 1 and "fork" in multiprocessing.get_all_start_methods():
-        out.pieces = _parallel(job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point)
+        out.pieces = _parallel(
+            job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point, while_computing
+        )
     else:
         total, done = hi - lo, 0.0
         for a, b, w in cuts:
@@ -367,9 +374,12 @@ def _worker_main(index: int, a: float, b: float, w: float | None, deadline) -> N
         queue.put(("error", index, f"{type(exc).__name__}: {exc}"))
 
 
-def _parallel(job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress, on_point) -> list[Piece]:
+def _parallel(
+    job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress, on_point, while_computing=None
+) -> list[Piece]:
     """The pieces computed by up to ``workers`` forked processes at once (one process per piece);
-    progress and orbits relayed here. On an interrupt or an error every worker is stopped."""
+    progress and orbits relayed here; ``while_computing()`` once the last worker has started. On
+    an interrupt or an error every worker is stopped."""
     ctx = multiprocessing.get_context("fork")
     queue = ctx.SimpleQueue()
     shared(job.system)  # the workers' results refer to it
@@ -416,6 +426,9 @@ def _parallel(job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress
                 p = ctx.Process(target=_worker_main, args=(i, a, b, w, deadline), daemon=True)
                 p.start()
                 running[i] = p
+                if not todo and while_computing is not None:
+                    while_computing()  # no fork after this: the caller may start threads
+                    while_computing = None
             if queue._reader.poll(0.05):  # (SimpleQueue's pipe: a timeout, unlike get())
                 handle(queue.get())
             else:

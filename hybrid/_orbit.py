@@ -15,6 +15,7 @@ import numpy as np
 
 from ._compiled import CompiledSystem
 from ._options import SolverOptions
+from ._scalar import bounded_minimum
 from ._system import HybridSystem
 from ._trajectory import Trajectory, _sampled
 
@@ -217,15 +218,17 @@ class _Extrema:
 
     Between two samples of one mode the state is the quintic Hermite interpolant of the samples'
     states, derivatives (the vector field, slave variables from the differentiated constraints)
-    and second derivatives (a central difference of the derivatives along the flow): its error is
+    and second derivatives (a central difference of the derivatives along the flow; with
+    ``affine``, the modes' exact flows of the exact integrator, both exactly): its error is
     ``O(h^6 y^(6))``, at the level of rounding for a few hundred samples per period, where reading
     the samples (or a parabola through them) errs by ``O(h^2 y'')``. The extremum is located on
     that interpolant by a bounded scalar search on the two intervals around the extreme sample;
     an extremum at a switch (a kink) is a sample itself (both sides of a switch are sampled).
     """
 
-    def __init__(self, cs: CompiledSystem, tr: Trajectory):
+    def __init__(self, cs: CompiledSystem, tr: Trajectory, affine: list | None = None):
         self.cs, self.tr = cs, tr
+        self.affine = affine  # the modes' exact flows (the exact integrator): exact derivatives
         self.mid = {name: k for k, name in enumerate(cs.mode_index)}
         self._jets: dict[int, tuple] = {}
         self._polys: dict[int, np.ndarray] = {}
@@ -238,6 +241,11 @@ class _Extrema:
             tr = self.tr
             cm = self.cs.modes[self.cs.mode_index[str(tr.mode[k])]]
             t, y = float(tr.t[k]), tr.y[k]
+            if self.affine is not None:
+                am = self.affine[cm.index]
+                z = am.augment(t, y)
+                j = self._jets[k] = (y, am.derivatives(z), am.second_derivatives(z))
+                return j
             yp = cm.derivatives(t, y)
             dt = 1e-5 * max(float(tr.t[-1] - tr.t[0]), 1e-300) / max(len(tr.t), 1)
             ypp = (cm.derivatives(t + dt, y + dt * yp) - cm.derivatives(t - dt, y - dt * yp)) / (2 * dt)
@@ -359,18 +367,13 @@ class _Extrema:
             if not self.smooth(a):
                 continue
             t0, t1 = float(self.tr.t[a]), float(self.tr.t[a + 1])
-            from scipy.optimize import minimize_scalar  # a rare fallback: not imported at start-up
-
             try:
-                r = minimize_scalar(
-                    lambda t, a=a: -sgn * self.value(name, a, t),
-                    bounds=(t0, t1),
-                    method="bounded",
-                    options={"xatol": 1e-10 * (t1 - t0)},
+                _, fun = bounded_minimum(
+                    lambda t, a=a: -sgn * self.value(name, a, t), t0, t1, 1e-10 * (t1 - t0)
                 )
             except (ArithmeticError, ValueError, np.linalg.LinAlgError):
                 continue
-            v = -sgn * float(r.fun)
+            v = -sgn * fun
             for tb in (t0, t1):  # the search does not evaluate its bounds
                 v = max(v, self.value(name, a, tb)) if sgn > 0 else min(v, self.value(name, a, tb))
             best = max(best, v) if sgn > 0 else min(best, v)
@@ -523,7 +526,7 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     mult, kinds, verdict = _classify(mult, n_struct, family, mtol)
     # Amplitudes (variables and outputs): extrema located on the flow, not read from samples.
     amp, hpp = {}, {}
-    ext = _Extrema(shooter.cs, tr)
+    ext = _Extrema(shooter.cs, tr, shooter.cs.affine() if shooter.options.integrator == "exact" else None)
     series = {n: tr.y[:, i] for i, n in enumerate(names) if n not in sys_.quadratures}
     series.update({o: tr.outputs[o] for o in sys_.outputs})
     for n, x in series.items():

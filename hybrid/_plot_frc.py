@@ -254,7 +254,9 @@ def plot_frc(
         ax.ticklabel_format(axis="x", useOffset=False)
         ax.set_ylabel(ylab)
         ax.set_title(
-            f"{name}: {par} {lo:.6g} to {hi:.6g} rad/s" + (" (grey: zoomed)" if zooms else ""), fontsize=9
+            f"{name}: {par} {lo:.6g} to {hi:.6g} rad/s" + (" (grey: zoomed)" if zooms else ""),
+            fontsize=9,
+            y=1.0,
         )
         ax.grid(alpha=0.3, which="both")
         for c, (a, b, w) in enumerate(zooms, start=1):
@@ -269,7 +271,7 @@ def plot_frc(
             if inside:
                 az.set_ylim(0.0, 1.2 * max(inside))
             az.axvline(w, color="0.5", lw=0.6, ls=":")
-            az.set_title(f"{name} near the resonance at {w:.5g} rad/s", fontsize=9)
+            az.set_title(f"{name} near the resonance at {w:.5g} rad/s", fontsize=9, y=1.0)
             az.xaxis.set_major_locator(MaxNLocator(5))
             az.ticklabel_format(axis="x", useOffset=False)
             az.grid(alpha=0.3)

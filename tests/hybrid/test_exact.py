@@ -130,6 +130,38 @@ def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_elimina
         assert am.omega == 0.854 and am.q.size == 2
 
 
+def test_second_derivatives_of_a_mode_match_the_vector_field_along_the_flow():
+    """y'' = P M^2 z (quadratures: z^T Q M z + (M z)^T Q z) against a central difference of the
+    compiled mode's own y' (slave rows from the differentiated constraint) along the exact flow."""
+    absorber = hybrid_models.absorber()
+    p = absorber.preset("standard", Omega=0.854)
+    cs = CompiledSystem(absorber, p)
+    rng = np.random.default_rng(3)
+    for am in affine_system(cs):
+        assert am.q.size == 2  # the energy integrals: quadrature rows are checked too
+        cm = am.cm
+        for _ in range(3):
+            t = float(rng.uniform(0.0, 7.0))
+            y = cm.solve_algebraic(t, rng.normal(size=cm.n))
+            z = am.augment(t, y)
+            dt = 1e-4
+            fl = am.flow()
+            zp, zm = fl.advance(z, dt)[0], fl.advance(z, -dt)[0]
+            # the vector field of the compiled mode (not of the affine analysis) at the flow's states
+            yp_p = cm.derivatives(t + dt, am.state(zp, np.zeros(2)))
+            yp_m = cm.derivatives(t - dt, am.state(zm, np.zeros(2)))
+            fd = (yp_p - yp_m) / (2.0 * dt)
+            ypp = am.second_derivatives(z)
+            # the differential and slave rows: O(dt^2) = 1e-8 relative
+            rows = [i for i in range(cm.n) if i not in am.q]
+            assert np.allclose(ypp[rows], fd[rows], rtol=1e-7, atol=1e-7 * np.max(np.abs(ypp[rows])))
+            # quadrature rows: d/dt of z^T Q z along the flow
+            qp = np.array([zp @ Qj @ zp for Qj in am.Q])
+            qm = np.array([zm @ Qj @ zm for Qj in am.Q])
+            assert np.allclose(ypp[am.q], (qp - qm) / (2.0 * dt), rtol=1e-7, atol=1e-9)
+            assert np.allclose(am.derivatives(z), cm.derivatives(t, y), rtol=1e-12, atol=1e-12)
+
+
 @pytest.mark.parametrize(
     ("extra", "match"),
     [
