@@ -20,7 +20,8 @@ def test_two_workers_give_the_same_curve_and_the_same_orbits_in_the_same_order()
     p = system.preset("standard")
     runs = {}
     for workers in (1, 2):
-        seen, fractions = [], []
+        seen, fractions, waiting = [], [], []
+        before = set(multiprocessing.active_children())  # (other tests' pools may still be alive)
         fr = frequency_response(
             system,
             p,
@@ -29,7 +30,12 @@ def test_two_workers_give_the_same_curve_and_the_same_orbits_in_the_same_order()
             workers=workers,
             on_point=lambda k, o, seen=seen: seen.append((k, o.params["Omega"], o.amplitude["x1"])),
             progress=fractions.append,
+            # called once with workers, when every one has started; never without
+            while_computing=lambda w=waiting, b=before: w.append(
+                len(set(multiprocessing.active_children()) - b)
+            ),
         )
+        assert waiting == ([] if workers == 1 else [2])
         assert len(fr.pieces) == 2 and not fr.gaps, fr.messages()
         assert fractions and fractions[-1] == pytest.approx(1.0) and max(fractions) <= 1.0
         runs[workers] = (seen, fr)
