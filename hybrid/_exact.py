@@ -944,9 +944,17 @@ class ExactModeSolver:
         am = self.am
         w = am.W[k]
         wm = w @ am.M
+        fl = self.flow
+        if fl.eigen:  # z(s) = V exp(L s) V^-1 z0: V^-1 z0 once, no quadratures (only z is needed)
+            c = fl.Vinv @ z0
+            wv, wmv = w @ fl.V, wm @ fl.V
         for _ in range(3):
-            zs = self.flow.advance(z0, s)[0] if s > 0 else z0
-            val, der = float(w @ zs), float(wm @ zs)
+            if fl.eigen:
+                e = np.exp(fl.lam * s) * c
+                val, der = float((wv @ e).real), float((wmv @ e).real)
+            else:
+                zs = fl.advance(z0, s)[0] if s > 0 else z0
+                val, der = float(w @ zs), float(wm @ zs)
             if der == 0.0:
                 break
             ds = -val / der
