@@ -336,10 +336,12 @@ def _info(msg: str) -> None:
 
 
 def cmd_models(args) -> int:
-    for name, ep in sorted(builtin_models().items()):
+    models = sorted(builtin_models().items())
+    width = max((len(name) for name, _ in models), default=0)
+    for name, ep in models:
         system = ep.load()()
         presets = ", ".join(system.presets) or "-"
-        print(f"{name:10s} {system.title}  [presets: {presets}]")
+        print(f"{name:{width}s}  {system.title}  [presets: {presets}]")
     return 0
 
 

@@ -228,3 +228,7 @@ def test_module_entry_point(tmp_path):
     )
     assert proc.returncode == 0
     assert "absorber" in proc.stdout and "isolator" in proc.stdout and "coulomb" in proc.stdout
+    # one column of titles, however long the names (belt_stribeck, coulomb_sign)
+    lines = proc.stdout.splitlines()
+    starts = {len(ln) - len(ln.split(None, 1)[1]) for ln in lines}
+    assert len(lines) >= 8 and len(starts) == 1, proc.stdout
