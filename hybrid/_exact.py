@@ -862,7 +862,7 @@ class ExactModeSolver:
         y = self.am.state(z, quad)
         return StepResult(status, t, y, self.am.derivatives(z), tuple(fired), message)
 
-    def start(self, t: float, y: np.ndarray, yp: np.ndarray) -> None:
+    def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> None:
         """Start at a consistent point ``(t, y)`` (``yp`` is not needed)."""
         self.t = float(t)
         self.z = self.am.augment(t, y)

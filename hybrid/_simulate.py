@@ -564,7 +564,7 @@ class _Run:
     def enter(self, mode: int, t: float, y: np.ndarray, after_switch: bool):
         """Consistent state in ``mode`` at ``t``, following switches the vector fields force.
 
-        Returns ``(mode, y, yp, disarmed)`` with ``disarmed`` mapping guard
+        Returns ``(mode, y, yp, disarmed)`` (``yp`` None on the exact integrator) with ``disarmed`` mapping guard
         index to the safe sign reported to IDA while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
@@ -610,7 +610,9 @@ class _Run:
                     raise _Stop(
                         Status.SOLVER_FAILED, f"state became non-finite at t={t!r} in mode `{cm.name}`"
                     )
-                return mode, y, cm.derivatives(t, y), disarmed
+                # (the exact flow starts from the state alone: no consistent y' to compute)
+                yp = None if self.opt.integrator == "exact" else cm.derivatives(t, y)
+                return mode, y, yp, disarmed
             visited.append((mode, y))
             y_new = self.apply_reset(fire, t, y)
             target = fire.target
