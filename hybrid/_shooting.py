@@ -200,7 +200,18 @@ class Shooter:
             y[self.names.index(q)] = 0.0
         T = self.period
         grid = np.linspace(t0, t0 + T, samples + 1) if samples else np.array([t0, t0 + T])
-        tr = run_compiled(self.cs, self.options, t0, t0 + T, y, self.cs.mode_id(mode0), grid, bool(samples))
+        # an unsampled run is an iterate of the map: its states and switches are read, not its outputs
+        tr = run_compiled(
+            self.cs,
+            self.options,
+            t0,
+            t0 + T,
+            y,
+            self.cs.mode_id(mode0),
+            grid,
+            bool(samples),
+            outputs=bool(samples),
+        )
         self.nfev += tr.nfev
         if tr.status in (Status.STEP_LIMIT, Status.TIME_LIMIT):
             raise BudgetExceeded("steps" if tr.status == Status.STEP_LIMIT else "time", tr.message)

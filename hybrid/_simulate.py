@@ -270,17 +270,33 @@ def run_compiled(
     *,
     sink: Sink | None = None,
     keep_last: float = 0.0,
+    outputs: bool = True,
 ) -> Trajectory:
     """:func:`simulate` on an already compiled system and checked input (only the sample caps are checked).
 
     ``samples`` is an increasing array of sample times, or None to sample
-    every internal step; ``sink`` and ``keep_last`` as in :func:`simulate`.
+    every internal step; ``sink`` and ``keep_last`` as in :func:`simulate`. Without ``outputs``
+    the system's outputs are not evaluated (the trajectory has none, and no ``start_values`` or
+    ``final_values``): a run of which only the states and switches are read, e.g. an iterate of
+    Newton's method on the period map.
     """
     atol = options.atol_vector(cs.system.variable_names)
     run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
+    run.with_outputs = outputs
     _check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
-    recorder = Recorder(len(cs.names), [m.name for m in cs.modes], run.outputs, sink, keep_last, MAX_SAMPLES)
+    recorder = Recorder(
+        len(cs.names),
+        [m.name for m in cs.modes],
+        run.outputs if outputs else _no_outputs,
+        sink,
+        keep_last,
+        MAX_SAMPLES,
+    )
     return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
+
+
+def _no_outputs(t: np.ndarray, y: np.ndarray, m: np.ndarray) -> dict[str, np.ndarray]:
+    return {}
 
 
 def step_bound(cs: CompiledSystem, options: SolverOptions, t0: float, t1: float) -> float:
@@ -460,6 +476,7 @@ class _Run:
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
+        self.with_outputs = True  # evaluate the outputs (samples, start and final values)
 
     # ------------------------------------------------------------------
     def solver(self, mode: int, careful: bool = False) -> ModeSolver:
@@ -969,7 +986,7 @@ class _Run:
         self.events.clear()
         try:
             self.rec.flush()  # a block whose outputs cannot be evaluated is dropped
-            if self.start is not None:
+            if self.start is not None and self.with_outputs:
                 start_values = self.values(*self.start)
                 final_values = self.values(float(t), np.asarray(y, dtype=float), mode)
         except _Stop as stop:  # an output cannot be evaluated, or the final slave variables not solved
