@@ -639,7 +639,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                     "amount every period); if something limits that growth at larger amplitude, " + HINT
                 )
             else:
-                why = "Newton's method did not converge; " + HINT
+                why = "Newton's method did not converge; " + _noisy(J, res_norm, tol, noise_rtol) + HINT
             return fail(f"{why} ({it} iterations, residual {res_norm:.3g})")
         if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(scale0, 1.0):
             return fail(
@@ -710,8 +710,8 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             if res_norm <= 0.1:
                 return fail(
                     "Newton's method found no decrease of the residual along its direction (the map "
-                    f"is not smooth here, or not accurate enough for the tolerance); {HINT} "
-                    f"({it} iterations, residual {res_norm:.3g})",
+                    f"is not smooth here, or not accurate enough for the tolerance); "
+                    f"{_noisy(J, res_norm, tol, noise_rtol)}{HINT} ({it} iterations, residual {res_norm:.3g})",
                 )
             # Far from the orbit (a transient's guess): take the best point tried, uphill, and say so.
             found = best
@@ -736,6 +736,28 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     at[:] = [y, mode0, t0, it]
     return _finish(
         shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=tr if sampled else None, M=M_y
+    )
+
+
+def _noisy(J, res_norm: float, tol: float, rtol: float) -> str:
+    """Why a residual that stalls near the tolerance may not go lower: ``I - M`` (``J``, its last
+    estimate) so ill-conditioned that the runs' error, amplified by it, exceeds the tolerance
+    (a multiplier near 1: a resonance, a degenerate orbit, a family); '' otherwise."""
+    if J is None or not res_norm <= 100.0 * tol or not np.all(np.isfinite(J)):
+        return ""
+    sv = np.linalg.svd(J, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else math.inf
+    if not cond * rtol > tol:
+        return ""
+    cure = (
+        "tighten rtol (--rtol) or use the exact integrator (--integrator exact) where the model is affine"
+        if rtol > 1e-14
+        else "loosen the tolerance (tol, --tol)"
+    )
+    return (
+        f"the residual stalls near the tolerance because I - M is nearly singular here (cond {cond:.3g}: a "
+        f"multiplier near 1), so the runs' relative error {rtol:.2g} becomes about {cond * rtol:.2g} on the "
+        f"state; {cure}; "
     )
 
 

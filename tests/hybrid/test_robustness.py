@@ -233,3 +233,36 @@ def test_an_output_that_cannot_be_evaluated_at_a_sample_is_named_with_its_time()
     assert tr.status == Status.EVALUATION_FAILED
     assert tr.message.startswith("evaluating output `o` of mode `a` at t=0.7")
     assert "ValueError" in tr.message
+
+
+def test_a_residual_stalled_by_an_ill_conditioned_map_says_so():
+    """The forced Coulomb oscillator at half its natural frequency: stops of zero length, a
+    multiplier 1 (I - M nearly singular). IDA's runs (rtol 1e-10) cannot bring the residual to
+    1e-9 there; the failure says why and what to change, and the remedy it names works: the exact
+    integrator converges at the same point and finds the multiplier 1 (an independent estimate)."""
+    import re
+
+    from hybrid import periodic_orbit
+
+    system = hybrid_models.coulomb()
+    p = system.preset("forced", Omega=0.5)
+    o = periodic_orbit(system, p)
+    assert not o.converged
+    assert "I - M is nearly singular here" in o.message and "--integrator exact" in o.message, o.message
+    cond = float(re.search(r"cond ([0-9.e+]+):", o.message).group(1))
+    assert cond * 1e-10 > 1e-9  # the amplified error exceeds the tolerance, as it says
+    exact = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))
+    assert exact.converged, exact.message
+    # a multiplier 1 there (reported as a family of orbits, or with cond(I - M) above 1e6)
+    assert np.min(np.abs(np.asarray(exact.multipliers) - 1.0)) < 1e-5
+    assert exact.family or exact.condition > 1e6
+
+
+def test_the_stall_note_is_not_given_where_the_map_is_well_conditioned():
+    from hybrid._shooting import _noisy
+
+    J = np.diag([-0.5, -0.25])  # I - M of a map contracting by 1/2 and 3/4
+    assert _noisy(J, 2e-9, 1e-9, 1e-10) == ""  # cond 2: the runs resolve the tolerance
+    assert _noisy(np.diag([-1.0, -1e-7]), 1.0, 1e-9, 1e-10) == ""  # far from converged: not the reason
+    assert "nearly singular" in _noisy(np.diag([-1.0, -1e-7]), 2e-9, 1e-9, 1e-10)
+    assert _noisy(None, 2e-9, 1e-9, 1e-10) == ""
