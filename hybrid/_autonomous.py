@@ -33,7 +33,15 @@ from ._autonomous_hints import period_guess
 from ._budget import BudgetExceeded
 from ._flowmap import Evaluation, FlowMap
 from ._options import SolverOptions
-from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _Extrema, _failed, check_samples, mode_fractions
+from ._orbit import (
+    ORBIT_OPTIONS,
+    PeriodicOrbit,
+    _Extrema,
+    _failed,
+    check_orbit_inputs,
+    check_samples,
+    mode_fractions,
+)
 from ._simulate import initial_state
 from ._system import HybridSystem
 
@@ -264,19 +272,7 @@ def autonomous_orbit(
     6.712389
     """
     options = ORBIT_OPTIONS if options is None else options
-    if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
-    if system.period is not None:
-        raise ValueError(
-            f"model `{system.name}` is periodically forced (period {system.period!r}): use hybrid.periodic_orbit"
-        )
-    if not isinstance(options, SolverOptions):
-        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
-    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
-        raise ValueError(f"`tol` must be a number > 0, got {tol!r}")
-    for name, v, lo in (("max_iter", max_iter, 1), ("transient_periods", transient_periods, 1)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
+    check_orbit_inputs(system, options, tol, max_iter, transient_periods, forced=False)
     check_samples(samples_per_period)
     phase = resolve_phase(system, phase)
     mode0 = mode0 if mode0 is not None else system.initial_mode

@@ -15,13 +15,14 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from ._options import INTEGRATORS, SolverOptions
+from ._options import SolverOptions
 from ._progress import ProgressBar
 from ._sweep import MANIFEST, linear_axis, load_sweep, log_axis, sweep
 from .cli import (
     UsageError,
     _add_model_args,
     _add_tolerances,
+    _add_work_limits,
     _check_integrator,
     _info,
     _parameters,
@@ -136,19 +137,7 @@ def add_parsers(sub) -> None:
         help="wall-clock limit of one point: it is recorded as `time limit` and the sweep goes on",
     )
     _add_tolerances(p)
-    p.add_argument(
-        "--max-steps",
-        type=_positive_int,
-        default=SolverOptions.max_steps,
-        metavar="N",
-        help=f"work limit of each integration, in IDA residual evaluations (default {SolverOptions.max_steps:g})",
-    )
-    p.add_argument(
-        "--integrator",
-        choices=INTEGRATORS,
-        default="ida",
-        help="ida (default, any model) or exact (matrix exponentials: models affine in the state)",
-    )
+    _add_work_limits(p)
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
     )

@@ -36,7 +36,15 @@ from ._budget import BudgetExceeded, deadline_passed
 from ._compiled import CompiledSystem
 from ._expr import compile_scalar, diff
 from ._options import SolverOptions
-from ._orbit import ORBIT_OPTIONS, PeriodicOrbit, _failed, _finish, check_samples, is_family
+from ._orbit import (
+    ORBIT_OPTIONS,
+    PeriodicOrbit,
+    _failed,
+    _finish,
+    check_orbit_inputs,
+    check_samples,
+    is_family,
+)
 from ._simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ._system import HybridSystem
 from ._trajectory import Status, Trajectory, _Deferred, _sampled
@@ -283,20 +291,6 @@ HINT = (
 )
 
 
-def _check_inputs(system: HybridSystem, options, tol: float, max_iter: int, transient_periods: int) -> None:
-    if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
-    if system.period is None:
-        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
-    if not isinstance(options, SolverOptions):
-        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
-    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
-        raise ValueError(f"`tol` must be a number > 0, got {tol!r}")
-    for name, v, lo in (("max_iter", max_iter, 1), ("transient_periods", transient_periods, 0)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
-
-
 def periodic_orbit(
     system: HybridSystem,
     params: Mapping[str, float],
@@ -371,7 +365,7 @@ def periodic_orbit(
             samples_per_period=samples_per_period,
         )
     options = ORBIT_OPTIONS if options is None else options
-    _check_inputs(system, options, tol, max_iter, transient_periods)
+    check_orbit_inputs(system, options, tol, max_iter, transient_periods, forced=True)
     check_samples(samples_per_period)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:

@@ -281,8 +281,7 @@ def run_compiled(
     Newton's method on the period map.
     """
     atol = options.atol_vector(cs.system.variable_names)
-    run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress)
-    run.with_outputs = outputs
+    run = _Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress, outputs)
     _check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
     recorder = Recorder(
         len(cs.names),
@@ -452,6 +451,7 @@ class _Run:
         include_events,
         max_transitions,
         progress,
+        with_outputs: bool = True,
     ):
         self.cs = cs
         self.opt = options
@@ -476,7 +476,7 @@ class _Run:
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
-        self.with_outputs = True  # evaluate the outputs (samples, start and final values)
+        self.with_outputs = with_outputs  # evaluate the outputs (samples, start and final values)
 
     # ------------------------------------------------------------------
     def solver(self, mode: int, careful: bool = False) -> ModeSolver:

@@ -188,6 +188,11 @@ def _add_budget(p: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help=f"wall-clock limit of the whole command (default {SolverOptions.max_wall_time:g} s)",
     )
+    _add_work_limits(p)
+
+
+def _add_work_limits(p: argparse.ArgumentParser) -> None:
+    """``--max-steps`` (the work of each integration) and ``--integrator``."""
     p.add_argument(
         "--max-steps",
         type=_positive_int,
