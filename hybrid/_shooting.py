@@ -566,6 +566,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     settle = False  # the residual met the tolerance and a further correction found no decrease
     sh = coarse or shooter  # the map of the current iteration
     pending = None  # the coarse run from y, for I - M at the first step of the requested map
+    seq_tried = False  # the switch-time Newton of the exact integrator (once, from the first run)
     while True:
         at[:] = [y, mode0, t0, it]
         if tr is None:
@@ -585,6 +586,21 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             # needed); Broyden's updates follow from runs of the requested accuracy only.
             sh, pending, tr, J, stage[0] = shooter, tr, None, None, "fine"
             continue
+        if (
+            not seq_tried
+            and noise_rtol < 1e-14
+            and res_norm > tol
+            and it < max_iter
+            and tr.mode_final == mode0
+        ):
+            # the exact integrator: Newton in the switch times of this run's sequence, checked by a run
+            seq_tried = True
+            cand = _sequence_candidate(shooter, nw, tr, y, mode0, t0, samples, res_norm, tol)
+            if cand is not None:
+                y, tr, sampled = cand
+                it += 1
+                J, J_here, M_y, pending = None, False, None, None
+                continue
         g = shooter.gauge(y)
         gauge_bad = family and g is not None and abs(g[0]) > tol * scale
         if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
@@ -731,6 +747,39 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     return _finish(
         shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=tr if sampled else None, M=M_y
     )
+
+
+def _sequence_candidate(shooter, nw, tr, y, mode0, t0, samples, res_norm, tol):
+    """The orbit with the switching sequence of ``tr`` by Newton in its switch times
+    (:mod:`hybrid._sequence`), run with samples from its section state: ``(y, run, True)`` where
+    that run returns to within ``max(tol, 1e-3 x res_norm)`` of it, else None (nothing changes)."""
+    from ._sequence import sequence_events, solve_sequence
+
+    cs = shooter.cs
+    events = sequence_events(tr, cs, t0, shooter.period)
+    if events is None:
+        return None
+    modes = cs.affine()
+    m0 = cs.mode_id(mode0)
+    try:
+        yd = solve_sequence(modes, m0, t0, shooter.period, y, events)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return None
+    if yd is None:
+        return None
+    y_new = np.array(y, dtype=float)
+    y_new[modes[m0].d] = yd
+    try:
+        y_new = nw.project(t0, y_new)
+    except Exception:  # AlgebraicSolveError: no consistent point there
+        return None
+    run = shooter._run(y_new, mode0, t0, samples)
+    if not run.success or not np.all(np.isfinite(run.y_final)):
+        return None
+    res = float(np.max(np.abs(nw.residual(run, y_new)))) / _scale(y_new, nw.d)
+    if not res <= max(tol, 1e-3 * res_norm):
+        return None
+    return y_new, run, True
 
 
 def _noisy(J, res_norm: float, tol: float, rtol: float) -> str:
