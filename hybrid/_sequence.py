@@ -9,19 +9,18 @@ is a product of exact linear maps of the augmented state ``z = [y_d, S, C, 1]``:
 (``J_k``: the full state read in the old mode, the transition's reset applied,
 the new mode's differential variables kept, its slave variables re-solved by
 its flow; a chain of switches at one instant composes its steps). Resets must
-be affine in the state and free of ``t``; their matrix is taken at the guess. The periodic orbit
-with that sequence solves ``N + n_d`` equations in ``N + n_d`` unknowns, the
+be affine in the state and free of ``t``; their matrix is taken at the guess.
+The periodic orbit with that sequence solves ``N + n_d`` equations in ``N + n_d`` unknowns, the
 section state ``y_d`` and the switch times::
 
     W_k z_k^- = 0    (the guard that fired, k = 1..N),    z_T[:n_d] = y_d,
 
 smooth in the unknowns (exponentials of the times, linear in the state), with an
 exact Jacobian by forward propagation (``d z / d t_k = M z`` at a switch). One
-Newton iteration costs ``N + 1`` small matrix exponentials instead of an
-event-driven run and a monodromy, and the iteration does not re-locate
-switches, so its convergence is not slowed by the switch times' implicit
-dependence on the state (:func:`hybrid._shooting.newton` from a continuation
-neighbour took 4 to 6 runs and monodromies on the absorber's stick-slip band).
+Newton iteration costs ``N + 1`` small matrix exponentials (about 0.08 ms on
+the absorber's stick-slip band, where it takes about 5 of them from a continuation
+neighbour) instead of an event-driven run and a monodromy (about 1.1 and 0.23 ms;
+:func:`hybrid._shooting.newton` alone took 4 to 6 of each there).
 
 The result is a *candidate* only: a guard of the sequence that would fire in
 the other direction, or a guard outside the sequence that fires first, is not
@@ -32,11 +31,13 @@ the exact monodromy there), and otherwise goes on from its own iterate.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ._exact import AffineMode
 
-__all__ = ["solve_sequence"]
+__all__ = ["Switch", "sequence_events", "solve_sequence"]
 
 #: Newton iterations allowed on the switch times and section state.
 MAX_ITER = 12
@@ -62,13 +63,59 @@ def _jump(a: AffineMode, b: AffineMode, R_y: np.ndarray, r0: np.ndarray) -> np.n
     return J
 
 
+@dataclass(frozen=True)
+class Switch:
+    """One switch instant of the guess: its time [s] and the transitions taken there, in order
+    (more than one for a chain), each as ``(source, guard index, target, R_y, r0)`` with the
+    affine reset ``y+ = R_y y- + r0``."""
+
+    t: float
+    steps: tuple
+
+    @property
+    def source(self) -> int:
+        return self.steps[0][0]
+
+    @property
+    def guard(self) -> int:
+        return self.steps[0][1]
+
+    @property
+    def target(self) -> int:
+        return self.steps[-1][2]
+
+
+def _jumps(modes: list[AffineMode], switches: list[Switch]) -> list[np.ndarray] | None:
+    """The jump matrix of every switch instant (a chain's steps composed), or None."""
+    out = []
+    for sw in switches:
+        J = None
+        for src, _, dst, R_y, r0 in sw.steps:
+            Jk = _jump(modes[src], modes[dst], R_y, r0)
+            if Jk is None:
+                return None
+            J = Jk if J is None else Jk @ J
+        out.append(J)
+    return out
+
+
+def _sequence(mode0: int, switches: list[Switch]) -> list[int] | None:
+    """The modes visited, ``[mode0, ..., mode0]``, or None where the switches do not chain."""
+    if not switches:
+        return None
+    seq = [mode0] + [sw.target for sw in switches]
+    if seq[-1] != mode0 or any(sw.source != seq[k] for k, sw in enumerate(switches)):
+        return None
+    return seq
+
+
 def solve_sequence(
     modes: list[AffineMode],
     mode0: int,
     t0: float,
     period: float,
     y0: np.ndarray,
-    events: list[tuple[float, int, int, int, np.ndarray]],
+    switches: list[Switch],
 ) -> np.ndarray | None:
     """The section state ``y_d`` of the periodic orbit that follows a switching sequence, or None.
 
@@ -82,10 +129,9 @@ def solve_sequence(
         Section time and period [s].
     y0 : ndarray
         Guess of the full state at the section (its differential variables of ``mode0`` are read).
-    events : list of (t, source, guard index, target, J)
-        The guess's switches within ``(t0, t0 + period)``, one per instant (a chain of switches
-        at one instant as its first guard and the mode it ends in), with the jump matrices of
-        :func:`sequence_events`.
+    switches : list of Switch
+        The guess's switch instants within ``(t0, t0 + period)``, in order
+        (:func:`sequence_events`).
 
     Returns
     -------
@@ -94,24 +140,33 @@ def solve_sequence(
         does not apply (forcing parts that differ, a switch time leaving its order, a singular or
         ill-conditioned Newton matrix, no convergence within :data:`MAX_ITER` iterations).
     """
-    n = len(events)
-    if n == 0:
+    seq = _sequence(mode0, switches)
+    jumps = _jumps(modes, switches) if seq is not None else None
+    if jumps is None:
         return None
-    seq = [mode0] + [e[3] for e in events]
-    if seq[-1] != mode0 or any(e[1] != seq[k] for k, e in enumerate(events)):
-        return None
-    jumps = [e[4] for e in events]
     a0 = modes[mode0]
     nd = a0.d.size
-    u = np.concatenate([np.asarray(y0, dtype=float)[a0.d], [e[0] for e in events]])
+    u = np.concatenate([np.asarray(y0, dtype=float)[a0.d], [sw.t for sw in switches]])
     forcing0 = a0.augment(t0, np.zeros(a0.P.shape[0]))[nd:]
-    t_end = t0 + period
-    scale_t = period
-    for _ in range(MAX_ITER):
-        times = np.concatenate([[t0], u[nd:], [t_end]])
+
+    def equations(u):
+        times = np.concatenate([[t0], u[nd:], [t0 + period]])
         if not np.all(np.diff(times) > 0.0):
             return None
-        F, JF = _residual(modes, seq, jumps, events, u, nd, forcing0, times)
+        return _residual(modes, seq, jumps, switches, u, nd, forcing0, times)
+
+    u = _newton(equations, u, nd, period)
+    return None if u is None else u[:nd]
+
+
+def _newton(equations, u: np.ndarray, nd: int, period: float) -> np.ndarray | None:
+    """Newton's method on ``equations(u) -> (F, dF/du)`` (None: out of its domain) to an update
+    below :data:`STEP_TOL` relative (the state to its size, the switch times to the period)."""
+    for _ in range(MAX_ITER):
+        out = equations(u)
+        if out is None:
+            return None
+        F, JF = out
         if not (np.all(np.isfinite(F)) and np.all(np.isfinite(JF))):
             return None
         try:
@@ -121,18 +176,16 @@ def solve_sequence(
         if not np.all(np.isfinite(du)) or np.linalg.cond(JF) > MAX_COND:
             return None
         u = u + du
-        scale_y = max(float(np.max(np.abs(u[:nd]))) if nd else 0.0, 1e-300)
-        if (not nd or float(np.max(np.abs(du[:nd]))) <= STEP_TOL * scale_y) and float(
-            np.max(np.abs(du[nd:]))
-        ) <= STEP_TOL * scale_t:
-            times = np.concatenate([[t0], u[nd:], [t_end]])
-            return u[:nd] if np.all(np.diff(times) > 0.0) else None
+        size = np.full(u.size, period)
+        size[:nd] = max(float(np.max(np.abs(u[:nd]))) if nd else 0.0, 1e-300)
+        if np.all(np.abs(du) <= STEP_TOL * size):
+            return u if equations(u) is not None else None
     return None
 
 
-def _residual(modes, seq, jumps, events, u, nd, forcing0, times) -> tuple[np.ndarray, np.ndarray]:
+def _residual(modes, seq, jumps, switches, u, nd, forcing0, times) -> tuple[np.ndarray, np.ndarray]:
     """The equations (guards, then periodicity) and their Jacobian in ``u = [y_d, t_1..t_N]``."""
-    n = len(events)
+    n = len(switches)
     nu = nd + n
     z = np.concatenate([u[:nd], forcing0])
     D = np.zeros((z.size, nu))
@@ -150,7 +203,7 @@ def _residual(modes, seq, jumps, events, u, nd, forcing0, times) -> tuple[np.nda
         if k > 0:
             D[:, nd + k - 1] -= v
         if k < n:
-            w = am.W[events[k][2]]
+            w = am.W[switches[k].guard]
             F[k] = float(w @ z)
             JF[k] = w @ D
             z = jumps[k] @ z
@@ -161,16 +214,14 @@ def _residual(modes, seq, jumps, events, u, nd, forcing0, times) -> tuple[np.nda
     return F, JF
 
 
-def sequence_events(tr, cs, t0: float, period: float) -> list[tuple] | None:
-    """The switches of a one-period run as ``(t, source, guard index, target, J)`` per instant for
-    :func:`solve_sequence`; None where it does not apply (a switch at the ends of the period, a
-    reset that depends on ``t`` or reads a quadrature, forcing parts that differ between modes)."""
+def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
+    """The switch instants of a one-period run for :func:`solve_sequence`; None where it does not
+    apply (a switch at the ends of the period, a reset that depends on ``t`` or on a quadrature)."""
     from ._variational import _ResetJacobians
 
-    modes = cs.affine()
     quads = set(cs.system.quadratures)
     resets = _ResetJacobians()
-    out: list[list] = []
+    out: list[Switch] = []
     for ev in tr.events:
         if not t0 < ev.t < t0 + period:
             return None
@@ -192,14 +243,11 @@ def sequence_events(tr, cs, t0: float, period: float) -> list[tuple] | None:
             r0 = after - R_y @ x  # exact for an affine reset
         else:
             R_y, r0 = np.eye(cm.n), np.zeros(cm.n)
-        J = _jump(modes[src], modes[dst], R_y, r0)
-        if J is None:
-            return None
+        step = (src, k, dst, R_y, r0)
         if ev.chained:
-            if not out or out[-1][3] != src:
+            if not out or out[-1].target != src:
                 return None
-            out[-1][3] = dst
-            out[-1][4] = J @ out[-1][4]
+            out[-1] = Switch(out[-1].t, (*out[-1].steps, step))
         else:
-            out.append([float(ev.t), src, k, dst, J])
-    return [tuple(e) for e in out] or None
+            out.append(Switch(float(ev.t), (step,)))
+    return out or None

@@ -16,7 +16,7 @@ import pytest
 import hybrid._shooting as shooting
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit
-from hybrid._sequence import _residual, sequence_events, solve_sequence
+from hybrid._sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
 from hybrid._shooting import Shooter
 from hybrid_models.coulomb_exact import den_hartog
 
@@ -42,10 +42,10 @@ def test_jacobian_equals_finite_differences():
     m0 = sh.cs.mode_id(o1.mode0)
     a0 = modes[m0]
     nd = a0.d.size
-    seq = [m0] + [e[3] for e in events]
-    jumps = [e[4] for e in events]
+    seq = [m0] + [sw.target for sw in events]
+    jumps = _jumps(modes, events)
     forcing0 = a0.augment(t0, np.zeros(len(ab.variable_names)))[nd:]
-    u = np.concatenate([o1.x0[a0.d], [e[0] for e in events]])
+    u = np.concatenate([o1.x0[a0.d], [sw.t for sw in events]])
 
     def F(u):
         times = np.concatenate([[t0], u[nd:], [t0 + sh.period]])
@@ -69,6 +69,7 @@ def test_coulomb_non_stop_orbit_equals_den_hartog():
     o1, sh, t0, tr = _neighbour_guess(co, "forced", 0.8, 0.83)
     events = sequence_events(tr, sh.cs, t0, sh.period)
     assert events is not None and len(events) == 2  # two instants, each a stop and a break-away
+    assert all(len(sw.steps) == 2 for sw in events)
     assert any(ev.chained for ev in tr.events) and any(
         sh.cs.modes[sh.cs.mode_id(ev.source)].guards[0].reset_expr for ev in tr.events if not ev.chained
     )
@@ -129,7 +130,7 @@ def test_does_not_apply_without_switches_or_with_times_out_of_order():
     m0 = sh.cs.mode_id(o1.mode0)
     modes = sh.cs.affine()
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, []) is None
-    swapped = [events[1][:1] + events[0][1:], events[0][:1] + events[1][1:], *events[2:]]
+    swapped = [Switch(events[1].t, events[0].steps), Switch(events[0].t, events[1].steps), *events[2:]]
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, swapped) is None
     # a sequence that does not return to the section's mode
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, events[:-1]) is None
