@@ -31,11 +31,14 @@ the exact monodromy there), and otherwise goes on from its own iterate.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from ._exact import AffineMode
+from ._expr import Expr, diff
 
 __all__ = ["Switch", "sequence_events", "solve_sequence"]
 
@@ -44,6 +47,9 @@ MAX_ITER = 12
 
 #: Converged when the last Newton update is below this, relative to the state's size and the period.
 STEP_TOL = 1e-12
+
+#: Each Newton update at most this fraction of the one before (else the guess is given up).
+CONTRACTION = 0.5
 
 #: Largest condition number of the Newton matrix accepted (a family of orbits makes it singular).
 MAX_COND = 1e11
@@ -161,7 +167,14 @@ def solve_sequence(
 
 def _newton(equations, u: np.ndarray, nd: int, period: float) -> np.ndarray | None:
     """Newton's method on ``equations(u) -> (F, dF/du)`` (None: out of its domain) to an update
-    below :data:`STEP_TOL` relative (the state to its size, the switch times to the period)."""
+    below :data:`STEP_TOL` relative (the state to its size, the switch times to the period).
+
+    Each update must be at most :data:`CONTRACTION` times the one before (in that relative
+    measure): a guess outside Newton's region of contraction is given up (None) rather than
+    followed, since the iteration may then reach another orbit with the same switching
+    sequence, far from the guess (an impact oscillator 19 % away in the forcing frequency went
+    to an unstable orbit while Newton's method on the period map stayed on the stable branch)."""
+    last = math.inf
     for _ in range(MAX_ITER):
         out = equations(u)
         if out is None:
@@ -175,10 +188,14 @@ def _newton(equations, u: np.ndarray, nd: int, period: float) -> np.ndarray | No
             return None
         if not np.all(np.isfinite(du)) or np.linalg.cond(JF) > MAX_COND:
             return None
-        u = u + du
         size = np.full(u.size, period)
         size[:nd] = max(float(np.max(np.abs(u[:nd]))) if nd else 0.0, 1e-300)
-        if np.all(np.abs(du) <= STEP_TOL * size):
+        step = float(np.max(np.abs(du) / size))
+        if step > CONTRACTION * last and step > STEP_TOL:
+            return None
+        last = step
+        u = u + du
+        if step <= STEP_TOL:
             return u if equations(u) is not None else None
     return None
 
@@ -214,9 +231,17 @@ def _residual(modes, seq, jumps, switches, u, nd, forcing0, times) -> tuple[np.n
     return F, JF
 
 
+@lru_cache(maxsize=256)
+def _affine(e: Expr, names: tuple[str, ...]) -> bool:
+    """True if ``e`` is affine in the variables ``names`` (its derivatives in them free of them)."""
+    state = set(names)
+    return not any(diff(e, nm).free & state for nm in e.free & state)
+
+
 def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
     """The switch instants of a one-period run for :func:`solve_sequence`; None where it does not
-    apply (a switch at the ends of the period, a reset that depends on ``t`` or on a quadrature)."""
+    apply (a switch at the ends of the period, a reset that is not affine in the state or that
+    depends on ``t`` or on a quadrature)."""
     from ._variational import _ResetJacobians
 
     quads = set(cs.system.quadratures)
@@ -231,7 +256,7 @@ def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
         if k is None or cm.guards[k].target != dst:
             return None
         reset = cm.guards[k].reset_expr
-        if any(("t" in e.free) or (e.free & quads) for _, e in reset):
+        if any(("t" in e.free) or (e.free & quads) or not _affine(e, cm.names) for _, e in reset):
             return None
         if reset:
             R_y, _ = resets(cm, k, ev.t, ev.x_minus)

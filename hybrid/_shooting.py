@@ -751,18 +751,17 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
 
 def _sequence_candidate(shooter, nw, tr, y, mode0, t0, samples, res_norm, tol):
     """The orbit with the switching sequence of ``tr`` by Newton in its switch times
-    (:mod:`hybrid._sequence`), run with samples from its section state: ``(y, run, True)`` where
-    that run returns to within ``max(tol, 1e-3 x res_norm)`` of it, else None (nothing changes)."""
+    (:mod:`hybrid._sequence`), run with samples from its section state (it is expected to be the
+    orbit: a rejected candidate costs one sampled run): ``(y, run, True)`` where that run returns
+    to within ``max(tol, 1e-3 x res_norm)`` of it, else None (nothing changes)."""
     from ._sequence import sequence_events, solve_sequence
 
     cs = shooter.cs
-    events = sequence_events(tr, cs, t0, shooter.period)
-    if events is None:
-        return None
     modes = cs.affine()
     m0 = cs.mode_id(mode0)
     try:
-        yd = solve_sequence(modes, m0, t0, shooter.period, y, events)
+        events = sequence_events(tr, cs, t0, shooter.period)
+        yd = None if events is None else solve_sequence(modes, m0, t0, shooter.period, y, events)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None
     if yd is None:

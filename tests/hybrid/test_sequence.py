@@ -15,7 +15,7 @@ import pytest
 
 import hybrid._shooting as shooting
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit
+from hybrid import SolverOptions, load_system, periodic_orbit
 from hybrid._sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
 from hybrid._shooting import Shooter
 from hybrid_models.coulomb_exact import den_hartog
@@ -134,3 +134,76 @@ def test_does_not_apply_without_switches_or_with_times_out_of_order():
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, swapped) is None
     # a sequence that does not return to the section's mode
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, events[:-1]) is None
+
+
+IMPACT = """
+[model]
+name = "impact"
+period = "2*pi/Omega"
+initial_mode = "free"
+[variables.x]
+[variables.v]
+[parameters.z]
+[parameters.e]
+[parameters.g]
+[parameters.F]
+[parameters.Omega]
+[presets.standard]
+z = 0.05
+e = 0.7
+g = 1.0
+F = 1.0
+Omega = 1.4256
+[equations]
+x = "v"
+v = "F*cos(Omega*t) - 2*z*v - x"
+[modes.free]
+[[transitions]]
+name = "hit"
+source = "free"
+target = "free"
+guard = "x - g"
+direction = 1
+reset = { v = "RESET" }
+"""
+
+
+def _impact(tmp_path, reset="-e*v"):
+    path = tmp_path / "impact.toml"
+    path.write_text(IMPACT.replace("RESET", reset))
+    return load_system(path)
+
+
+def test_a_guess_outside_newtons_contraction_keeps_the_branch(tmp_path, monkeypatch):
+    """An impact oscillator with two orbits of one impact per period at Omega = 1.6923 (found by
+    the review of this module): from the stable orbit at 1.4256 (19 % away) Newton's method on
+    the period map reaches the stable one; the switch-time iteration, whose updates there do not
+    contract, is given up instead of being followed to the unstable one."""
+    s = _impact(tmp_path)
+    p = periodic_orbit(s, s.preset("standard"), options=EXACT, tol=1e-12)
+    assert p.converged and p.stable
+    q = s.preset("standard", Omega=1.6923)
+
+    def solve():
+        o = periodic_orbit(s, q, p.x0, p.mode0, t0=p.t0 * 1.4256 / 1.6923, transient_periods=0,
+                           options=EXACT, tol=1e-12)  # fmt: skip
+        assert o.converged, o.message
+        return o
+
+    with_sequence = solve()
+    monkeypatch.setattr(shooting, "_sequence_candidate", lambda *a, **k: None)
+    plain = solve()
+    assert plain.stable and with_sequence.stable
+    assert np.max(np.abs(with_sequence.x0 - plain.x0)) <= 1e-10 * np.max(np.abs(plain.x0))
+
+
+def test_a_reset_that_is_not_affine_is_not_linearised(tmp_path):
+    s = _impact(tmp_path, reset="-e*v - 0.01*v*v")
+    p = periodic_orbit(s, s.preset("standard"), options=EXACT, tol=1e-12)
+    assert p.converged and len(p.switch_times) == 1
+    sh = Shooter(s, s.preset("standard"), EXACT)
+    tr = sh.run(p.x0, p.mode0, p.t0)
+    assert sequence_events(tr, sh.cs, p.t0, sh.period) is None
+    affine = _impact(tmp_path, reset="-e*v - 0.01")
+    sh = Shooter(affine, affine.preset("standard"), EXACT)
+    assert sequence_events(sh.run(p.x0, p.mode0, p.t0), sh.cs, p.t0, sh.period) is not None
