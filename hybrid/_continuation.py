@@ -35,6 +35,7 @@ from ._orbit import (
     ORBIT_OPTIONS,
     PeriodicOrbit,
     _finish,
+    balance_scales,
     check_samples,
     is_family,
     mode_fractions,
@@ -240,6 +241,7 @@ class _Continuer:
         # The map at a looser tolerance for the iterations that cannot be accepted (IDA only).
         self.coarse = _coarse(self.sh, self.tol)
         self._coarse_jac = True  # the Newton system last seen fit for a coarse M (see correct)
+        self.bs: np.ndarray | None = None  # balancing scales of the state, from the first point
 
     def at(self, p: float) -> None:
         params = {**self.base, self.parameter: p}
@@ -251,6 +253,16 @@ class _Continuer:
     def scale_of(self, pt: _Point, d: np.ndarray) -> float:
         return _scale(pt.y, d)
 
+    def scales(self, pt: _Point, d: np.ndarray) -> np.ndarray:
+        """``D``: unscaled = scaled x D, the state by its size in the balanced units of the
+        branch's first point (:func:`hybrid._orbit.balance_scales`, kept along the branch: the
+        units do not change, and scales that changed from point to point, as they do near a fold,
+        would change the arclength under the corrector; all ones for a model in consistent units,
+        where this is the state's largest component), the parameter by the range."""
+        bs = self.bs if self.bs is not None and self.bs.size == d.size else np.ones(d.size)
+        size = max(float(np.max(np.abs(pt.y[d]) / bs)) if d.size else 0.0, 1e-300)
+        return np.concatenate([bs * size, [self.sp]])
+
     def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False, ref=None):
         """Rows of the (scaled) Newton system, and on a family of orbits (a neutral multiplier 1) a
         row that picks the member: the model's gauge, or without one the family's own direction
@@ -260,7 +272,8 @@ class _Continuer:
 
         Returns ``(A, rhs, family, gauge value or None)``.
         """
-        _, sv, vt = np.linalg.svd(Jy)
+        bs = balance_scales(Jy)  # rank tests in balanced units
+        _, sv, vt = np.linalg.svd(Jy * bs[None, :] / bs[:, None])
         family = force_gauge or is_family(sv)
         A = np.hstack([Jy, Jp[:, None]])
         rhs = -r
@@ -268,10 +281,10 @@ class _Continuer:
         gval = None
         if family and g is not None:
             row, gval = g[1][d], g[0]
-        elif family and is_family(np.linalg.svd(A, compute_uv=False)):
+        elif family and is_family(np.linalg.svd(A / bs[:, None], compute_uv=False)):
             # a family: [I - M, dP/dp] is rank-deficient too (at a fold only I - M is, and the
             # branch moves along that null vector: nothing may hold it there)
-            row = vt[-1]
+            row = vt[-1] / bs
             gval = float(row @ (y[d] - (y if ref is None else ref)[d]))
         if gval is not None:
             A = np.vstack([A, np.concatenate([row, [0.0]])])
@@ -309,7 +322,7 @@ class _Continuer:
         nw = _Newton(self.sh, pt.mode)
         d = nw.d
         sy = self.scale_of(pt, d)
-        D = np.concatenate([np.full(d.size, sy), [self.sp]])  # unscaled = scaled * D
+        D = self.scales(pt, d)  # unscaled = scaled * D
         tau = pt.tangent
         X0 = np.concatenate([pt.y[d], [pt.p]])
         Xp = X0 + ds * tau * D
@@ -374,6 +387,8 @@ class _Continuer:
                         raise
                     continue  # (a grazing switch): the requested map's
                 A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
+                w = _row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
+                A, rhs = A * w[:, None], rhs * w
                 X = np.concatenate([y[d], [p]])
                 Ab = np.vstack([A, tau / D])
                 rhs = np.concatenate([rhs, [-(tau @ ((X - Xp) / D))]])
@@ -479,12 +494,22 @@ class _Continuer:
         r = nw.residual(tr, y)
         Jy, Jp, _ = self.jacobian(tr, y, pt.p, pt.mode, pt.phi, nw)
         A, _, _, _ = self.system_matrix(y, Jy, Jp, r, d)
-        D = np.concatenate([np.full(d.size, self.scale_of(pt, d)), [self.sp]])
-        return self.null_vector(A, D, prev, direction)
+        if self.bs is None or self.bs.size != d.size:
+            self.bs = balance_scales(Jy)  # the units of the state: once per branch
+        D = self.scales(pt, d)
+        return self.null_vector(A * _row_weights(D, d.size, A.shape[0])[:, None], D, prev, direction)
 
 
 class _Fail(Exception):
     pass
+
+
+def _row_weights(D: np.ndarray, nd: int, rows: int) -> np.ndarray:
+    """Weights of the Newton system's rows: a residual row in the balanced units of ``D`` (its
+    state part relative to its largest entry: all ones for a model in consistent units), a gauge
+    row as it is."""
+    b = D[:nd] / max(float(np.max(D[:nd])), 1e-300) if nd else D[:0]
+    return np.concatenate([1.0 / b, np.ones(rows - nd)])
 
 
 #: A corrector step from an iterate whose scaled residual is below this is run with samples (its
@@ -504,7 +529,8 @@ def _ambiguous(Jy: np.ndarray) -> bool:
     on an error of about 1e-6 in ``M``: its smallest singular value is neither far below the
     threshold (a structural family, e.g. the free offset of a component that does not move) nor
     far above it."""
-    sv = np.linalg.svd(Jy, compute_uv=False)
+    bs = balance_scales(Jy)
+    sv = np.linalg.svd(Jy * bs[None, :] / bs[:, None], compute_uv=False)
     if not sv.size or not sv[0] > 0.0:
         return True
     return 1e-3 * FAMILY_TOL * sv[0] < sv[-1] < 1e-4 * sv[0]

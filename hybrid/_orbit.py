@@ -449,6 +449,46 @@ def is_family(sv: np.ndarray) -> bool:
     return bool(sv[-1] <= FAMILY_TOL * max(1.0, sv[0]))
 
 
+#: Coordinates whose balancing factors (:func:`balance_scales`) stay within this ratio of each other
+#: are not rescaled: a model in consistent units (the shipped ones) keeps its numerics.
+BALANCE_RATIO = 16.0
+
+
+def balance_scales(J: np.ndarray) -> np.ndarray:
+    """Scales ``s`` (powers of 2) that balance ``J``: ``diag(s)^-1 J diag(s)`` has off-diagonal
+    rows and columns of comparable norms (Parlett & Reinsch 1969), all ones where the factors
+    stay within :data:`BALANCE_RATIO` of each other.
+
+    A similarity: the multipliers do not change, but the singular values of ``I - M`` do, and so
+    do the rank tests and truncated pseudo-inverses that read them. In the unscaled state they
+    depend on the units: with the absorber's time scale shrunk 100 times (stiffnesses and forces
+    times 1e4, a forcing period of 0.074 s) its velocities are 100 times its displacements,
+    ``cond(I - M)`` rose from 1e5 to 1e7 and beyond the pseudo-inverse's cut-off, and Newton's
+    method stalled where the balanced matrix has the same 1e5 as the unscaled one.
+    """
+    n = J.shape[0]
+    A = np.abs(np.asarray(J, dtype=float))
+    np.fill_diagonal(A, 0.0)
+    s = np.ones(n)
+    for _ in range(100):
+        changed = False
+        for i in range(n):
+            c, r = float(A[:, i].sum()), float(A[i, :].sum())
+            if c == 0.0 or r == 0.0:
+                continue
+            f = 2.0 ** round(0.5 * math.log2(r / c))
+            if f != 1.0 and c * f + r / f < 0.95 * (c + r):
+                A[:, i] *= f
+                A[i, :] /= f
+                s[i] *= f
+                changed = True
+        if not changed:
+            break
+    if float(np.max(s) / np.min(s)) <= BALANCE_RATIO:
+        return np.ones(n)
+    return s
+
+
 #: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
 MIN_SAMPLES = 16
 
@@ -536,7 +576,10 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     Ms = M[:ns, :ns]
     A = Ms[np.ix_(nw.pos, nw.pos)]
     IA = np.eye(nw.d.size) - A
-    sv = np.linalg.svd(IA, compute_uv=False)
+    # cond (the error bound) and the family test in balanced units, as Newton's method's: in the
+    # state's own units a velocity 100 times a displacement made cond 100 times larger
+    bs = balance_scales(IA)
+    sv = np.linalg.svd(IA * bs[None, :] / bs[:, None], compute_uv=False)
     family = is_family(sv)
     g = shooter.gauge(y)
     # cond = largest / smallest singular value that counts (the family direction removed when

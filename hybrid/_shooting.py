@@ -41,6 +41,7 @@ from ._orbit import (
     PeriodicOrbit,
     _failed,
     _finish,
+    balance_scales,
     check_orbit_inputs,
     check_samples,
     is_family,
@@ -672,19 +673,25 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 if sh is shooter:
                     M_y = M
             J_here = False
-            sv = np.linalg.svd(J, compute_uv=False)
+            # In balanced coordinates (the units of the state do not decide rank and truncation)
+            bs = balance_scales(J)
+            Js = J * bs[None, :] / bs[:, None]
+            sv = np.linalg.svd(Js, compute_uv=False)
             family = is_family(sv)
-            A = np.vstack([J, g[1][d]]) if (family and g is not None) else J
+            A = np.vstack([Js, g[1][d] * bs]) if (family and g is not None) else Js
             rhs = _rhs(r, g, family)
-            pinv = np.linalg.pinv(A, rcond=rcond)
-            step = pinv @ rhs
+            w = np.concatenate([1.0 / bs, np.ones(rhs.size - bs.size)])  # rows in balanced units
+            pinv = np.linalg.pinv(A, rcond=rcond) * w[None, :]  # rhs -> balanced step
+            step_b = pinv @ rhs
+            step = bs * step_b
+            rhs = rhs * w
             if exact:  # judged on the exact I - M only; once seen, kept for the diagnosis
                 rn = float(np.linalg.norm(rhs))
                 resonant = resonant or bool(
                     (
                         sv[-1] <= 1e-6 * max(sv[0], 1e-300)
                         and rn > 0
-                        and np.linalg.norm(A @ step - rhs) > 0.5 * rn
+                        and np.linalg.norm(A @ step_b - rhs) > 0.5 * rn
                     )
                     # a Newton step thousands of times the state: I - M nearly singular, mismatch
                     # outside its range (the line search then keeps the iterates from growing)
@@ -694,7 +701,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 return None  # not the plain case: diagnosed at the requested tolerances
             # The linear model corrects almost none of the mismatch (it lies outside the range of
             # the matrix): no progress is possible along Newton's step.
-            if float(np.linalg.norm(A @ step)) <= 1e-3 * float(np.linalg.norm(rhs)):
+            if float(np.linalg.norm(A @ step_b)) <= 1e-3 * float(np.linalg.norm(rhs)):
                 if exact:
                     stalled = True  # the mismatch lies outside the range of I - M
                     break
@@ -704,7 +711,17 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             # the result's (nothing is integrated twice).
             ahead = samples if (sh is shooter and res_norm <= SAMPLE_AHEAD * tol) else None
             found, best = _line_search(
-                sh, nw, y, mode0, t0, step, pinv, family, float(np.linalg.norm(rhs)), ahead
+                sh,
+                nw,
+                y,
+                mode0,
+                t0,
+                step,
+                pinv,
+                family,
+                float(np.linalg.norm(rhs / w)),
+                ahead,
+                phi0=float(np.linalg.norm(step_b)),
             )
             if found is not None or exact:
                 break
@@ -787,7 +804,8 @@ def _noisy(J, res_norm: float, tol: float, rtol: float) -> str:
     (a multiplier near 1: a resonance, a degenerate orbit, a family); '' otherwise."""
     if J is None or not res_norm <= 100.0 * tol or not np.all(np.isfinite(J)):
         return ""
-    sv = np.linalg.svd(J, compute_uv=False)
+    bs = balance_scales(J)
+    sv = np.linalg.svd(J * bs[None, :] / bs[:, None], compute_uv=False)
     cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else math.inf
     if not cond * rtol > tol:
         return ""
@@ -824,10 +842,12 @@ def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int,
     more step is taken (Broyden's iterates stop earlier than quadratic ones would)."""
     if J is None or it >= max_iter:
         return True
-    sv = np.linalg.svd(J, compute_uv=False)
+    bs = balance_scales(J)  # in balanced units, as Newton's steps
+    Js = J * bs[None, :] / bs[:, None]
+    sv = np.linalg.svd(Js, compute_uv=False)
     if not sv.size or sv[0] == 0.0:
         return True
-    corr = np.linalg.lstsq(J, -r, rcond=rcond)[0]
+    corr = bs * np.linalg.lstsq(Js, -r / bs, rcond=rcond)[0]
     noise = SETTLE_NOISE * sv[0] / max(sv[-1], rcond * sv[0]) * rtol
     return float(np.max(np.abs(corr))) <= max(tol, noise) * scale
 
@@ -863,7 +883,7 @@ def _rhs(r: np.ndarray, g, family: bool) -> np.ndarray:
     return np.concatenate([-r, [-g[0]]]) if (family and g is not None) else -r
 
 
-def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0, samples=None):
+def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0, samples=None, phi0=None):
     """Armijo backtracking along the Newton step ``step = pinv @ rhs(y)``.
 
     The first ``lam = 1, 1/2, ...`` is taken where the residual norm ``|rhs|`` decreases
@@ -876,14 +896,15 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0, samples=No
     amplifies the integration noise by ``cond(I - M)``).
 
     The first trial (``lam = 1``) is run with ``samples`` per period if given (a step expected to
-    end at the orbit).
+    end at the orbit). ``phi0`` is ``|pinv @ rhs(y)|`` (default ``|step|``: ``pinv`` gives the step
+    itself; the caller's may give it in balanced units, :func:`hybrid._orbit.balance_scales`).
 
     Returns ``(found, best)``: ``found = (y_new, run, lam)`` or None (the run is kept for the
     next iteration: nothing is integrated twice); without one, ``best`` is the tried point of
     least merit in the same form (for a step far from the orbit, reported by the caller), or None.
     """
     d = nw.d
-    phi0 = float(np.linalg.norm(step))
+    phi0 = float(np.linalg.norm(step)) if phi0 is None else phi0
     lam = 1.0
     best = None
     for _ in range(MAX_BACKTRACKS):

@@ -1,0 +1,76 @@
+"""Orbits and branches do not depend on the units of the state.
+
+A model in engineering units (stiffnesses of 1e6 N/m and masses of 10 kg: a forcing period of a few
+hundredths of a second) has velocities hundreds of times its displacements. The absorber with its
+stiffnesses, sliding force and forcing amplitude multiplied by ``c`` is the standard absorber with
+time divided by ``sqrt(c)``: its orbits are the standard ones at ``Omega sqrt(c)``, its velocities
+``sqrt(c)`` times larger, its multipliers the same, its band edges at ``sqrt(c)`` times the closed
+forms (independent references: the standard model's own orbit, and the closed-form crossings of the
+stick response with the structural-change limit, :mod:`hybrid_models.linear`). Before the rank tests
+and truncated pseudo-inverses of ``I - M`` were made in balanced units, ``periodic_orbit`` failed at
+``c = 1e4`` and a continuation over the first band stalled inside it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import hybrid_models
+from hybrid import SolverOptions, continuation, periodic_orbit
+from hybrid._orbit import balance_scales
+
+EXACT = SolverOptions(integrator="exact")
+#: The absorber's first band edges (standard parameters), from the closed forms (test_continuation).
+ONSET, LOSS = 0.8529825446319, 0.8556511156206
+
+
+def _scaled(c: float, omega: float) -> dict:
+    ab = hybrid_models.absorber()
+    p = ab.preset("standard")
+    for k in ("c1", "c2", "c3", "R", "F"):
+        p[k] *= c
+    p["Omega"] = omega * math.sqrt(c)
+    return p
+
+
+def test_balance_scales_recover_a_change_of_units():
+    rng = np.random.default_rng(7)
+    J0 = rng.normal(size=(4, 4))
+    assert np.all(balance_scales(J0) == 1.0)  # balanced within the ratio: left alone
+    T = np.array([1.0, 1e3, 1.0, 1e3])  # e.g. velocities in mm/s
+    J = J0 * T[None, :] / T[:, None]  # the same map in other units: T^-1 J0 T
+    s = balance_scales(J)
+    B = J * s[None, :] / s[:, None]
+    cond = np.linalg.cond(B)
+    assert np.linalg.cond(J) > 1e4 * np.linalg.cond(J0)
+    assert cond <= 10 * np.linalg.cond(J0)
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(B)), np.sort(np.linalg.eigvals(J0)), atol=1e-9)
+
+
+@pytest.mark.parametrize("integrator", ["exact", "ida"])
+def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator):
+    ab = hybrid_models.absorber()
+    opts = EXACT if integrator == "exact" else None
+    ref = periodic_orbit(ab, _scaled(1.0, 0.85306), options=opts)
+    o = periodic_orbit(ab, _scaled(1e4, 0.85306), options=opts)
+    assert ref.converged and o.converged, o.message
+    assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
+    # displacements equal, velocities 100 times larger; IDA to cond x rtol (about 4e-6 here)
+    rel = 1e-10 if integrator == "exact" else 1e-4
+    for name, f in (("x1", 1.0), ("x2", 1.0), ("v1", 100.0), ("v2", 100.0)):
+        assert o.amplitude[name] == pytest.approx(f * ref.amplitude[name], rel=rel), name
+    mu, mu_ref = np.sort_complex(o.multipliers), np.sort_complex(ref.multipliers)
+    assert np.max(np.abs(mu - mu_ref)) <= (1e-10 if integrator == "exact" else 1e-6)
+
+
+def test_continuation_in_engineering_units_locates_the_band_onset():
+    w = 100.0  # sqrt(1e4): a forcing period of 0.074 s
+    br = continuation(hybrid_models.absorber(), _scaled(1e4, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
+                      options=EXACT)  # fmt: skip
+    assert br.status == "completed", br.message
+    onset = [s for s in br.special if s.kind == "mode-gained"]
+    assert len(onset) == 1 and onset[0].status == "located"
+    assert onset[0].parameter == pytest.approx(ONSET * w, rel=1e-10)
