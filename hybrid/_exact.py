@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
+from ._balance import balance
 from ._compiled import CompiledMode, CompiledSystem
 from ._dae import ROOT, SUCCESS, TSTOP, StepResult
 from ._expr import (
@@ -640,8 +641,8 @@ class Flow:
     """The exact flow ``z(h) = expm(M h) z`` of one affine mode, and its quadratures.
 
     Where ``M`` has a well-conditioned eigenvector basis (condition number at
-    most :data:`EIGEN_COND`), ``expm(M h) = V exp(L h) V^-1`` costs a few
-    matrix-vector products for any ``h``; otherwise (a defective ``M``, e.g.
+    most :data:`EIGEN_COND` after balancing, :func:`hybrid._balance.balance`),
+    ``expm(M h) = V exp(L h) V^-1`` costs a few matrix-vector products for any ``h``; otherwise (a defective ``M``, e.g.
     forcing exactly at a natural frequency) :func:`matrix_exp` is used, with
     the quadratures by Van Loan's block exponential.
 
@@ -657,9 +658,14 @@ class Flow:
         self.nz = M.shape[0]
         self.eigen = False
         try:
-            lam, V = np.linalg.eig(M)
-            Vinv = np.linalg.inv(V)
-            if _cond1(V, Vinv) <= EIGEN_COND:
+            # eigenvectors of the balanced generator (a diagonal similarity by powers of 2): in
+            # engineering units (velocities 1e3 times the displacements) those of M itself had a
+            # condition number over EIGEN_COND, and every flow fell back on the Pade path
+            b = balance(M)
+            lam, Vb = np.linalg.eig(M * b[None, :] / b[:, None])
+            Vbinv = np.linalg.inv(Vb)
+            V, Vinv = Vb * b[:, None], Vbinv / b[None, :]
+            if _cond1(Vb, Vbinv) <= EIGEN_COND:
                 self.lam, self.V, self.Vinv = lam, V, Vinv
                 # quadratures in the eigenbasis: int z^T Q z = c^T (V^T Q V o Phi(h)) c, c = V^-1 z
                 self.QV = np.array([V.T @ Qj @ V for Qj in Q]).reshape(len(Q), self.nz, self.nz)

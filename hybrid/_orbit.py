@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._balance import balance
 from ._compiled import CompiledSystem
 from ._options import SolverOptions
 from ._scalar import bounded_minimum
@@ -454,10 +455,9 @@ def is_family(sv: np.ndarray) -> bool:
 BALANCE_RATIO = 16.0
 
 
-def balance_scales(J: np.ndarray) -> np.ndarray:
-    """Scales ``s`` (powers of 2) that balance ``J``: ``diag(s)^-1 J diag(s)`` has off-diagonal
-    rows and columns of comparable norms (Parlett & Reinsch 1969), all ones where the factors
-    stay within :data:`BALANCE_RATIO` of each other.
+def balance_scales(J: np.ndarray, ratio: float = BALANCE_RATIO) -> np.ndarray:
+    """Scales ``s`` (powers of 2) that balance ``J`` (:func:`hybrid._balance.balance`), all ones
+    where the factors stay within ``ratio`` (:data:`BALANCE_RATIO`) of each other.
 
     A similarity: the multipliers do not change, but the singular values of ``I - M`` do, and so
     do the rank tests and truncated pseudo-inverses that read them. In the unscaled state they
@@ -466,26 +466,9 @@ def balance_scales(J: np.ndarray) -> np.ndarray:
     ``cond(I - M)`` rose from 1e5 to 1e7 and beyond the pseudo-inverse's cut-off, and Newton's
     method stalled where the balanced matrix has the same 1e5 as the unscaled one.
     """
-    n = J.shape[0]
-    A = np.abs(np.asarray(J, dtype=float))
-    np.fill_diagonal(A, 0.0)
-    s = np.ones(n)
-    for _ in range(100):
-        changed = False
-        for i in range(n):
-            c, r = float(A[:, i].sum()), float(A[i, :].sum())
-            if c == 0.0 or r == 0.0:
-                continue
-            f = 2.0 ** round(0.5 * math.log2(r / c))
-            if f != 1.0 and c * f + r / f < 0.95 * (c + r):
-                A[:, i] *= f
-                A[i, :] /= f
-                s[i] *= f
-                changed = True
-        if not changed:
-            break
-    if float(np.max(s) / np.min(s)) <= BALANCE_RATIO:
-        return np.ones(n)
+    s = balance(J)
+    if float(np.max(s) / np.min(s)) <= ratio:
+        return np.ones(s.size)
     return s
 
 
@@ -576,11 +559,12 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     Ms = M[:ns, :ns]
     A = Ms[np.ix_(nw.pos, nw.pos)]
     IA = np.eye(nw.d.size) - A
-    # cond (the error bound) and the family test in balanced units, as Newton's method's: in the
-    # state's own units a velocity 100 times a displacement made cond 100 times larger
+    # the family test in balanced units, as Newton's method's; cond, the error bound reported, in
+    # the state's own units (IDA controls each variable's error relative to its size: the balanced
+    # cond, smaller where velocities are hundreds of times the displacements, could understate it)
     bs = balance_scales(IA)
-    sv = np.linalg.svd(IA * bs[None, :] / bs[:, None], compute_uv=False)
-    family = is_family(sv)
+    family = is_family(np.linalg.svd(IA * bs[None, :] / bs[:, None], compute_uv=False))
+    sv = np.linalg.svd(IA, compute_uv=False)
     g = shooter.gauge(y)
     # cond = largest / smallest singular value that counts (the family direction removed when
     # the gauge fixes it); inf where that one is 0, e.g. I - M = 0 (every state a periodic orbit).

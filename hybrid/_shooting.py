@@ -804,8 +804,7 @@ def _noisy(J, res_norm: float, tol: float, rtol: float) -> str:
     (a multiplier near 1: a resonance, a degenerate orbit, a family); '' otherwise."""
     if J is None or not res_norm <= 100.0 * tol or not np.all(np.isfinite(J)):
         return ""
-    bs = balance_scales(J)
-    sv = np.linalg.svd(J * bs[None, :] / bs[:, None], compute_uv=False)
+    sv = np.linalg.svd(J, compute_uv=False)  # in the state's own units, as the orbit's `condition`
     cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 else math.inf
     if not cond * rtol > tol:
         return ""

@@ -21,6 +21,7 @@ import pytest
 import hybrid_models
 from hybrid import SolverOptions, continuation, periodic_orbit
 from hybrid._orbit import balance_scales
+from hybrid._shooting import Shooter
 
 EXACT = SolverOptions(integrator="exact")
 #: The absorber's first band edges (standard parameters), from the closed forms (test_continuation).
@@ -50,25 +51,32 @@ def test_balance_scales_recover_a_change_of_units():
     np.testing.assert_allclose(np.sort(np.linalg.eigvals(B)), np.sort(np.linalg.eigvals(J0)), atol=1e-9)
 
 
-@pytest.mark.parametrize("integrator", ["exact", "ida"])
-def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator):
+@pytest.mark.parametrize(("integrator", "c"), [("exact", 1e4), ("ida", 1e4), ("exact", 1e6), ("ida", 1e6)])
+def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator, c):
+    """Forcing periods of 74 ms (c = 1e4) and 7.4 ms (c = 1e6). At c = 1e6 the exact flows'
+    eigenvectors had a condition number over 1e4 until the generator was balanced: every flow fell
+    back on the Pade path and a continuation over the band stalled."""
     ab = hybrid_models.absorber()
-    opts = EXACT if integrator == "exact" else None
-    ref = periodic_orbit(ab, _scaled(1.0, 0.85306), options=opts)
-    o = periodic_orbit(ab, _scaled(1e4, 0.85306), options=opts)
+    opts, tol = (EXACT, 1e-12) if integrator == "exact" else (None, 1e-9)
+    ref = periodic_orbit(ab, _scaled(1.0, 0.85306), options=opts, tol=tol)
+    o = periodic_orbit(ab, _scaled(c, 0.85306), options=opts, tol=tol)
     assert ref.converged and o.converged, o.message
     assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
-    # displacements equal, velocities 100 times larger; IDA to cond x rtol (about 4e-6 here)
-    rel = 1e-10 if integrator == "exact" else 1e-4
-    for name, f in (("x1", 1.0), ("x2", 1.0), ("v1", 100.0), ("v2", 100.0)):
+    if integrator == "exact":
+        assert all(am.flow().eigen for am in Shooter(ab, o.params, EXACT).cs.affine())
+    # displacements equal, velocities sqrt(c) times larger (exact: 1.6e-10 apart at c = 1e6, though
+    # each orbit's residual is 5e-16); IDA to cond x rtol (about 4e-6 here)
+    rel = 1e-9 if integrator == "exact" else 1e-4
+    for name, f in (("x1", 1.0), ("x2", 1.0), ("v1", math.sqrt(c)), ("v2", math.sqrt(c))):
         assert o.amplitude[name] == pytest.approx(f * ref.amplitude[name], rel=rel), name
     mu, mu_ref = np.sort_complex(o.multipliers), np.sort_complex(ref.multipliers)
     assert np.max(np.abs(mu - mu_ref)) <= (1e-10 if integrator == "exact" else 1e-6)
 
 
-def test_continuation_in_engineering_units_locates_the_band_onset():
-    w = 100.0  # sqrt(1e4): a forcing period of 0.074 s
-    br = continuation(hybrid_models.absorber(), _scaled(1e4, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
+@pytest.mark.parametrize("c", [1e4, 1e6])
+def test_continuation_in_engineering_units_locates_the_band_onset(c):
+    w = math.sqrt(c)  # forcing periods of 74 ms and 7.4 ms
+    br = continuation(hybrid_models.absorber(), _scaled(c, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
                       options=EXACT)  # fmt: skip
     assert br.status == "completed", br.message
     onset = [s for s in br.special if s.kind == "mode-gained"]
