@@ -36,6 +36,7 @@ from ._orbit import (
     PeriodicOrbit,
     _finish,
     balance_scales,
+    balanced,
     check_samples,
     is_family,
     mode_fractions,
@@ -272,8 +273,8 @@ class _Continuer:
 
         Returns ``(A, rhs, family, gauge value or None)``.
         """
-        bs = balance_scales(Jy)  # rank tests in balanced units
-        _, sv, vt = np.linalg.svd(Jy * bs[None, :] / bs[:, None])
+        Jb, bs = balanced(Jy)  # rank tests in balanced units
+        _, sv, vt = np.linalg.svd(Jb)
         family = force_gauge or is_family(sv)
         A = np.hstack([Jy, Jp[:, None]])
         rhs = -r
@@ -536,8 +537,7 @@ def _ambiguous(Jy: np.ndarray) -> bool:
     on an error of about 1e-6 in ``M``: its smallest singular value is neither far below the
     threshold (a structural family, e.g. the free offset of a component that does not move) nor
     far above it."""
-    bs = balance_scales(Jy)
-    sv = np.linalg.svd(Jy * bs[None, :] / bs[:, None], compute_uv=False)
+    sv = np.linalg.svd(balanced(Jy)[0], compute_uv=False)
     if not sv.size or not sv[0] > 0.0:
         return True
     return 1e-3 * FAMILY_TOL * sv[0] < sv[-1] < 1e-4 * sv[0]

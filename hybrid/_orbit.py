@@ -472,6 +472,12 @@ def balance_scales(J: np.ndarray, ratio: float = BALANCE_RATIO) -> np.ndarray:
     return s
 
 
+def balanced(J: np.ndarray, ratio: float = BALANCE_RATIO) -> tuple[np.ndarray, np.ndarray]:
+    """``(diag(s)^-1 J diag(s), s)`` with ``s`` from :func:`balance_scales`."""
+    s = balance_scales(J, ratio)
+    return J * s[None, :] / s[:, None], s
+
+
 #: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
 MIN_SAMPLES = 16
 
@@ -562,8 +568,7 @@ def _finish(shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None
     # the family test in balanced units, as Newton's method's; cond, the error bound reported, in
     # the state's own units (IDA controls each variable's error relative to its size: the balanced
     # cond, smaller where velocities are hundreds of times the displacements, could understate it)
-    bs = balance_scales(IA)
-    family = is_family(np.linalg.svd(IA * bs[None, :] / bs[:, None], compute_uv=False))
+    family = is_family(np.linalg.svd(balanced(IA)[0], compute_uv=False))
     sv = np.linalg.svd(IA, compute_uv=False)
     g = shooter.gauge(y)
     # cond = largest / smallest singular value that counts (the family direction removed when

@@ -41,7 +41,7 @@ from ._orbit import (
     PeriodicOrbit,
     _failed,
     _finish,
-    balance_scales,
+    balanced,
     check_orbit_inputs,
     check_samples,
     is_family,
@@ -674,8 +674,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                     M_y = M
             J_here = False
             # In balanced coordinates (the units of the state do not decide rank and truncation)
-            bs = balance_scales(J)
-            Js = J * bs[None, :] / bs[:, None]
+            Js, bs = balanced(J)
             sv = np.linalg.svd(Js, compute_uv=False)
             family = is_family(sv)
             A = np.vstack([Js, g[1][d] * bs]) if (family and g is not None) else Js
@@ -841,8 +840,7 @@ def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int,
     more step is taken (Broyden's iterates stop earlier than quadratic ones would)."""
     if J is None or it >= max_iter:
         return True
-    bs = balance_scales(J)  # in balanced units, as Newton's steps
-    Js = J * bs[None, :] / bs[:, None]
+    Js, bs = balanced(J)  # in balanced units, as Newton's steps
     sv = np.linalg.svd(Js, compute_uv=False)
     if not sv.size or sv[0] == 0.0:
         return True
