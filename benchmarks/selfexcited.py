@@ -27,10 +27,10 @@ from matplotlib.figure import Figure
 
 import hybrid_models
 from hybrid import SolverOptions, simulate
-from hybrid._autobranch import hopf_branch, orbit_branch
-from hybrid._autonomous import autonomous_orbit
-from hybrid._equilibria import locate_hopf
-from hybrid._palc import PalcSettings
+from hybrid.continuation.autonomous import hopf_branch, orbit_branch
+from hybrid.continuation.palc import PalcSettings
+from hybrid.orbits.autonomous import autonomous_orbit
+from hybrid.orbits.equilibria import locate_hopf
 
 #: Tolerances of the Stribeck and damper branches: at rtol 1e-10 the trivial multiplier of the
 #: smooth cycles is off by up to 7e-8 (the variational runs' error), at 1e-12 by about 1e-9.

@@ -4,22 +4,22 @@ import doctest
 
 import pytest
 
-import hybrid._autonomous
-import hybrid._linear
-import hybrid._plothints
-import hybrid._simulate
-import hybrid._sweep
-import hybrid._system
+import hybrid.engine.simulate
+import hybrid.model.linear
+import hybrid.model.plot_hints
+import hybrid.model.system
+import hybrid.orbits.autonomous
+import hybrid.studies.sweep
 import hybrid_models.averaging
 import hybrid_models.overlays
 
 MODULES = [
-    hybrid._autonomous,
-    hybrid._simulate,
-    hybrid._sweep,
-    hybrid._system,
-    hybrid._linear,
-    hybrid._plothints,
+    hybrid.orbits.autonomous,
+    hybrid.engine.simulate,
+    hybrid.studies.sweep,
+    hybrid.model.system,
+    hybrid.model.linear,
+    hybrid.model.plot_hints,
     hybrid_models.overlays,
     hybrid_models.averaging,
 ]

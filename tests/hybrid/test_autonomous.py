@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from hybrid import HybridSystem, Mode, ModelError, SolverOptions, periodic_orbit, system_from_dict
-from hybrid._autonomous import autonomous_orbit
-from hybrid._equilibria import equilibrium
-from hybrid._flowmap import FlowMap
+from hybrid.orbits.autonomous import autonomous_orbit
+from hybrid.orbits.equilibria import equilibrium
+from hybrid.orbits.flowmap import FlowMap
 
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
 

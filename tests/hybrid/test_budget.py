@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-import hybrid._budget as budget_mod
+import hybrid.core.budget as budget_mod
 import hybrid_models
 from hybrid import (
     HybridSystem,
@@ -14,15 +14,15 @@ from hybrid import (
     SolverOptions,
     Status,
     Transition,
-    continuation,
+    continue_orbits,
     periodic_orbit,
     simulate,
     time_limit,
 )
-from hybrid._budget import Budget, BudgetExceeded
-from hybrid._compiled import CompiledSystem
-from hybrid._frc import frequency_response
-from hybrid._variational import Sensitivity
+from hybrid.continuation.frc import frequency_response
+from hybrid.core.budget import Budget, BudgetExceeded
+from hybrid.engine.variational import Sensitivity
+from hybrid.model.compiled import CompiledSystem
 
 
 def rest(system):
@@ -35,7 +35,7 @@ def coulomb_forced():
 
 
 class FakeClock:
-    """Drives ``hybrid._budget``'s clock: time stands still until ``jump`` moves it."""
+    """Drives ``hybrid.core.budget``'s clock: time stands still until ``jump`` moves it."""
 
     def __init__(self):
         self.now = 1000.0
@@ -225,7 +225,7 @@ def test_continuation_stops_at_the_deadline_with_the_points_it_has(clock):
             clock.jump(100)
 
     with time_limit(50):
-        br = continuation(system, p, "Omega", (0.8, 0.9), ds=0.05, progress=progress)
+        br = continue_orbits(system, p, "Omega", (0.8, 0.9), ds=0.05, progress=progress)
     assert br.status == "stopped"
     assert "time limit reached" in br.message
     assert len(br.points) >= 3 and len(seen) == 2
@@ -272,7 +272,7 @@ def test_a_period_too_short_to_integrate_is_refused():
 
 
 def test_an_ida_flag_unknown_to_scikit_sundae_is_a_failure_status(monkeypatch):
-    import hybrid._dae as dae
+    import hybrid.integrators.ida as dae
 
     def unknown(ida, t, method, tstop):
         return None, (-60, "IDA returned flag -60, unknown to scikit-sundae: tout too close to t0")
@@ -285,7 +285,7 @@ def test_an_ida_flag_unknown_to_scikit_sundae_is_a_failure_status(monkeypatch):
 
 
 def test_call_turns_a_keyerror_of_scikit_sundae_into_a_flag():
-    from hybrid._dae import _call
+    from hybrid.integrators.ida import _call
 
     class Raises:
         def step(self, t, method, tstop=None):
@@ -327,7 +327,7 @@ def test_periodic_orbit_refuses_too_few_samples(n):
     with pytest.raises(ValueError, match=r"`samples_per_period` must be an integer >= 16"):
         periodic_orbit(system, p, samples_per_period=n)
     with pytest.raises(ValueError, match=r"`samples_per_period` must be an integer >= 16"):
-        continuation(system, p, "Omega", (0.5, 0.6), samples_per_period=n)
+        continue_orbits(system, p, "Omega", (0.5, 0.6), samples_per_period=n)
 
 
 def test_condition_of_a_fully_stuck_orbit_is_infinite_not_nan():
@@ -374,7 +374,7 @@ def test_grazing_switch_is_not_converged_with_the_reason():
     o = periodic_orbit(sign_relay(), {"W": 1.3}, {"x": 0.0, "v": 0.5}, "up")
     assert not o.converged
     assert o.message.startswith("grazing switch: ") and "saltation matrix is undefined" in o.message
-    br = continuation(sign_relay(), {"W": 1.3}, "W", (1.3, 1.4), x0={"x": 0.0, "v": 0.5}, mode0="up")
+    br = continue_orbits(sign_relay(), {"W": 1.3}, "W", (1.3, 1.4), x0={"x": 0.0, "v": 0.5}, mode0="up")
     assert br.status == "stopped" and "grazing switch" in br.message
 
 

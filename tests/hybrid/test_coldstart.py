@@ -1,4 +1,4 @@
-"""Cold starts that find the orbit (issue 7, item 4; ``hybrid/_coldstart.py``).
+"""Cold starts that find the orbit (issue 7, item 4; ``hybrid/continuation/coldstart.py``).
 
 Where Newton's method from a 10-period transient fails (close to a peak, Floquet multipliers
 0.99 and more), :func:`hybrid.periodic_orbit` falls back on a continuation in the forcing
@@ -18,10 +18,17 @@ from dataclasses import replace
 import numpy as np
 
 import hybrid
-from hybrid import ContinuationOptions, SolverOptions, continuation, periodic_orbit, simulate
-from hybrid._coldstart import find_by_continuation
-from hybrid._linear import natural_frequencies
-from hybrid.cli import main, resolve_model
+from hybrid import (
+    ContinuationOptions,
+    SolverOptions,
+    continue_orbits,
+    periodic_orbit,
+    resolve_model,
+    simulate,
+)
+from hybrid.cli import main
+from hybrid.continuation.coldstart import find_by_continuation
+from hybrid.model.linear import natural_frequencies
 
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
 
@@ -45,7 +52,7 @@ def _reference(system, params, start: float):
     """The orbit at ``params`` on a continuation from ``Omega = start``: the branch's point nearest
     ``params["Omega"]``, corrected there (Newton from that point, no transient)."""
     om = params["Omega"]
-    br = continuation(system, params, "Omega", (start, om), settings=ContinuationOptions(locate=False))
+    br = continue_orbits(system, params, "Omega", (start, om), settings=ContinuationOptions(locate=False))
     ps = br.p
     assert ps.size and (ps.min() - om) * (ps.max() - om) <= 0, br.message  # it passed through om
     o = br.points[int(np.argmin(np.abs(ps - om)))]
@@ -146,14 +153,14 @@ def test_no_fallback_without_a_transient():
 def test_a_failed_fallback_says_what_it_tried(monkeypatch):
     # branches cut short (2 orbits each) never reach the requested frequency: each side is tried
     # once, and the result is Newton's failure with the fallback's attempts
-    import hybrid._coldstart as cs
+    import hybrid.continuation.coldstart as cs
 
-    real = cs.continuation
+    real = cs.continue_orbits
 
     def short(*args, settings, **kwargs):
         return real(*args, settings=replace(settings, max_points=2), **kwargs)
 
-    monkeypatch.setattr(cs, "continuation", short)
+    monkeypatch.setattr(cs, "continue_orbits", short)
     system = resolve_model("absorber")
     base = system.preset("standard")
     params = {**base, "Omega": float(natural_frequencies(system, base)[0])}

@@ -17,8 +17,8 @@ import orbit_problems as op
 import pytest
 
 import hybrid
-from hybrid import ContinuationOptions, continuation, frequency_response
-from hybrid.cli import main, resolve_model
+from hybrid import ContinuationOptions, continue_orbits, frequency_response, resolve_model
+from hybrid.cli import main
 from hybrid_models.coulomb_exact import den_hartog
 
 
@@ -37,7 +37,7 @@ def den_hartog_tolerance(m: float, k: float, W: float) -> float:
 # ----------------------------------------------------------------------------
 def test_duffing_folds_located_to_1e8():
     system, params, ref = op.duffing()
-    br = continuation(
+    br = continue_orbits(
         system, params, "Omega", (1.0, 1.4), settings=ContinuationOptions(ds=0.1, samples_per_period=32)
     )
     assert br.status == "completed", br.message
@@ -55,7 +55,7 @@ def test_duffing_folds_located_to_1e8():
 def test_friction_loss_of_stick_located_to_1e8():
     system, params, _ = op.friction_oscillator()
     boundary = op.friction_stick_boundary(params)
-    br = continuation(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
+    br = continue_orbits(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
     assert br.status == "completed", br.message
     (lost,) = [s for s in br.special if s.kind == "mode-lost"]
     assert lost.status == "located"
@@ -68,7 +68,7 @@ def test_located_with_a_coarse_tolerance_is_still_honest():
     """A loose locate_tol: the point is located to it, not to more than it says."""
     system, params, _ = op.friction_oscillator()
     boundary = op.friction_stick_boundary(params)
-    br = continuation(
+    br = continue_orbits(
         system,
         params,
         "Omega",
@@ -84,7 +84,7 @@ def test_located_with_a_coarse_tolerance_is_still_honest():
 
 def test_unlocated_points_are_bracketed():
     system, params, ref = op.duffing()
-    br = continuation(
+    br = continue_orbits(
         system,
         params,
         "Omega",
@@ -108,7 +108,7 @@ def coulomb():
 
 def test_unbounded_branch_stops_with_its_label(coulomb):
     system, params = coulomb
-    br = continuation(system, params, None, (1.3, 0.9))
+    br = continue_orbits(system, params, None, (1.3, 0.9))
     assert br.parameter == "Omega"  # the forcing frequency, from the period
     assert br.status == "stopped" and br.reason == "unbounded", br.message
     assert br.special[-1].kind == "unbounded" and br.special[-1].status == "bracketed"
@@ -169,7 +169,7 @@ def test_frequency_response_matches_den_hartog_below_resonance(coulomb):
 
 # ----------------------------------------------------------------------------
 def test_interrupted_frc_keeps_the_rows_written(tmp_path, capsys, monkeypatch):
-    import hybrid.cli as cli
+    import hybrid.cli.frc as cli
 
     calls = {"n": 0}
 
@@ -253,7 +253,7 @@ def test_public_names_and_empty_branch():
     br = hybrid.Branch(system, {}, "Omega")
     assert "no point" in repr(br)
     with pytest.raises(TypeError, match="unexpected"):
-        continuation(system, dict(system.presets["forced"]), "Omega", (1.1, 1.2), step=0.1)
+        continue_orbits(system, dict(system.presets["forced"]), "Omega", (1.1, 1.2), step=0.1)
 
 
 def test_a_start_that_fails_at_the_range_end_is_retried_inside_it(coulomb):
@@ -276,7 +276,7 @@ def test_a_start_that_fails_at_the_range_end_is_retried_inside_it(coulomb):
 
 def test_an_unforced_system_has_no_branch_to_follow():
     system = resolve_model("coulomb")
-    br = continuation(system, system.presets["free"], None, (0.5, 1.5))
+    br = continue_orbits(system, system.presets["free"], None, (0.5, 1.5))
     assert br.status == "stopped" and br.reason == "degenerate", br.message
     assert len(br.points) == 1 and "I - M vanishes" in br.message
 
@@ -320,7 +320,7 @@ def test_leaving_a_band_lands_on_the_gauge_member_not_on_a_grazing_one():
 
     system = hybrid_models.absorber()
     p = system.preset("standard")
-    br = continuation(system, p, "Omega", (0.852, 0.858), options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", (0.852, 0.858), options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message
     band = max(o.transitions_per_period for o in br.points)
     assert band == 4
@@ -359,7 +359,7 @@ def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
 
     system = hybrid_models.absorber()
     p = system.preset("standard")
-    br = continuation(system, p, "Omega", window, options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", window, options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message
     refs = _slip_boundaries(p, *window)
     changes = [s for s in br.special if s.kind in ("mode-gained", "mode-lost")]
@@ -381,7 +381,7 @@ def test_ida_brackets_of_slip_onset_and_loss_contain_the_closed_form_crossings(w
 
     system = hybrid_models.absorber()
     p = system.preset("standard")
-    br = continuation(system, p, "Omega", window)
+    br = continue_orbits(system, p, "Omega", window)
     assert br.status == "completed", br.message
     changes = sorted(
         [s for s in br.special if s.kind in ("mode-gained", "mode-lost")], key=lambda s: s.parameter

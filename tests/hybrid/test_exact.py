@@ -2,7 +2,7 @@
 
 References: the closed-form response of a forced undamped oscillator, cos/sin crossings at known
 angles, the work integral of a harmonic force in closed form, and the reduced Jacobian of
-:mod:`hybrid._linear` (slave variables eliminated independently).
+:mod:`hybrid.model.linear` (slave variables eliminated independently).
 """
 
 import math
@@ -12,10 +12,10 @@ import pytest
 
 import hybrid_models
 from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
-from hybrid._compiled import CompiledSystem
-from hybrid._dae import ROOT, TSTOP
-from hybrid._exact import ExactModeSolver, NotAffineError, affine_mode, affine_system
-from hybrid._linear import reduced_jacobian
+from hybrid.integrators.exact import ExactModeSolver, NotAffineError, affine_mode, affine_system
+from hybrid.integrators.ida import ROOT, TSTOP
+from hybrid.model.compiled import CompiledSystem
+from hybrid.model.linear import reduced_jacobian
 
 
 def _oscillator(guard: str | None = None, direction: int = 0, extra: dict | None = None) -> HybridSystem:
@@ -237,7 +237,7 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
 def test_parametric_analysis_equals_the_folded_one(name, preset):
     """The analysis done once on the system's expressions (parameters as symbols), evaluated at random
     parameter values, gives the M, P, Q, W of the analysis of the expressions with the values folded in."""
-    from hybrid._exact import affine_flows
+    from hybrid.integrators.exact import affine_flows
 
     system = getattr(hybrid_models, name)()
     base = system.preset(preset)
@@ -257,7 +257,7 @@ def test_parametric_analysis_equals_the_folded_one(name, preset):
 
 
 def test_parametric_analysis_names_the_mode_of_a_second_frequency():
-    from hybrid._exact import affine_flows
+    from hybrid.integrators.exact import affine_flows
 
     system = _oscillator(extra={"v": "-x + sin(W*t) + sin(w0*t)"})
     with pytest.raises(NotAffineError, match=r"mode `free`: two forcing frequencies"):
@@ -345,11 +345,11 @@ def test_a_whole_exact_band_agrees_with_ida(name):
     phase the other does not (different mode sequences), and the orbit at a located mode change (a
     phase of vanishing length: what moves only in it, e.g. the slip velocity, has an amplitude like
     the square root of the state's error)."""
-    from hybrid import SolverOptions, continuation, periodic_orbit
+    from hybrid import SolverOptions, continue_orbits, periodic_orbit
 
     system = getattr(hybrid_models, name)()
     p = system.preset("standard")
-    br = continuation(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message
     at_change = {
         s.index for s in br.special if s.kind in ("mode-gained", "mode-lost") and s.status == "located"
@@ -388,7 +388,7 @@ def test_frechet_derivative_of_the_flow_matches_a_central_difference(defective):
     difference of the exponential (``scipy.linalg.expm``, step 1e-5: error about 1e-10)."""
     from scipy.linalg import expm
 
-    from hybrid._exact import Flow
+    from hybrid.integrators.exact import Flow
 
     rng = np.random.default_rng(3)
     if defective:  # a Jordan block: no eigenvector basis
@@ -408,7 +408,7 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
     flows) against IDA's variational equations at rtol 1e-12 (the central difference of two exact
     flows it replaces agreed to 6e-9 only)."""
     from hybrid import SolverOptions, periodic_orbit
-    from hybrid._shooting import Shooter
+    from hybrid.orbits.shooting import Shooter
 
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.8545)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hybrid import FUNCTIONS, ExpressionError
-from hybrid._expr import compile_scalar, diff, free_symbols, parse, substitute, taylor_eval
+from hybrid.model.expr import compile_scalar, diff, free_symbols, parse, substitute, taylor_eval
 
 KNOWN = {"x", "y", "t", "k"}
 WHERE = "test expression"

@@ -67,7 +67,7 @@ def test_expansion_derives_regions_sliding_mode_and_entry():
     s = _relay()
     assert s.mode_names == ("m_+", "m_-", "m_0", "m_0r", "m")
     assert s.initial_mode is None and s.variable_names == ("x", "v", "sign_1")
-    (surf,) = hybrid._filippov.surfaces(s)
+    (surf,) = hybrid.model.filippov.surfaces(s)
     assert (surf.h, surf.coefficient, surf.slides, surf.mode) == ("v", "sign_1", True, "m")
     arcs = {(t.source, t.target, t.direction, t.name) for t in s.transitions}
     assert ("m_+", "m_0", -1, "sign_1:reach") in arcs and ("m_-", "m_0", 1, "sign_1:reach") in arcs
@@ -75,7 +75,7 @@ def test_expansion_derives_regions_sliding_mode_and_entry():
     assert s.mode("m_0r").halt and not s.mode("m_0").halt
     # The sliding mode: sign_1 is the slave of 0 = dv/dt; the regions fix it at +-1.
     p = {"k": 2.0, "R": 0.5}
-    cs = hybrid._compiled.CompiledSystem(s, p)
+    cs = hybrid.model.compiled.CompiledSystem(s, p)
     slide = cs.modes[cs.mode_index["m_0"]]
     y = slide.solve_algebraic(0.0, np.array([0.1, 0.0, 0.0]))
     assert y[2] == pytest.approx(-2.0 * 0.1 / 0.5, rel=1e-14)
@@ -83,7 +83,7 @@ def test_expansion_derives_regions_sliding_mode_and_entry():
 
 def test_a_system_without_sign_is_unchanged(coulomb):
     assert hybrid.load_system(ROOT / "models" / "coulomb.toml").mode_names == coulomb.mode_names
-    assert hybrid._filippov.surfaces(coulomb) == ()
+    assert hybrid.model.filippov.surfaces(coulomb) == ()
 
 
 def test_hybrid_system_refuses_sign_of_the_state():
@@ -337,7 +337,7 @@ def test_crossing_only_relay_matches_solve_ivp():
         modes=[Mode("m", derivatives={"x": "v", "v": "-2*z*v - x - R*sign(x)"})],
         transitions=[],
     )
-    (surf,) = hybrid._filippov.surfaces(s)
+    (surf,) = hybrid.model.filippov.surfaces(s)
     assert not surf.slides and "m_0" not in s.mode_names
     p = {"z": 0.02, "R": 0.1}
     tr = simulate(s, p, (0.0, 30.0), {"x": 1.0, "v": 0.0}, mode0="m", options=EXACT)
@@ -408,7 +408,7 @@ def test_sliding_on_two_surfaces_and_intersection_of_three_is_reported():
         modes=[Mode("m", derivatives={"x": "0.5 - sign(x)", "y": "-sign(y)"})],
         transitions=[],
     )
-    assert len(hybrid._filippov.surfaces(two)) == 2 and "m_00" in two.mode_names
+    assert len(hybrid.model.filippov.surfaces(two)) == 2 and "m_00" in two.mode_names
     for options in (IDA, EXACT):
         tr = simulate(two, {}, (0.0, 5.0), {"x": 1.0, "y": 0.5}, mode0="m", options=options)
         assert [(e.target, round(e.t, 9)) for e in tr.events if not e.chained] == [
@@ -518,7 +518,7 @@ def test_two_surfaces_crossing_one_while_sliding_on_the_other(coulomb):
         initial_mode="m",
         period="2*pi/Omega",
     )
-    assert [x.h for x in hybrid._filippov.surfaces(s)] == ["v1", "v2"]
+    assert [x.h for x in hybrid.model.filippov.surfaces(s)] == ["v1", "v2"]
     span = (0.0, 4 * 2 * math.pi / 0.6)
     grid = np.linspace(*span, 400)
     # (k2, R2, v2 at t = 0, which guard follows a meeting of the surfaces): crossings of v2 = 0

@@ -91,7 +91,7 @@ def test_workers_must_be_a_positive_integer(workers):
 
 
 def test_an_error_in_a_worker_is_raised_here_with_its_message(monkeypatch):
-    import hybrid._frc as frc
+    import hybrid.continuation.frc as frc
 
     def boom(self, a, b, w, progress, on_point):
         if a > 1.0:

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from hybrid import ModelError, load_system, simulate, system_from_dict
-from hybrid._expr import MAX_OPERATORS, count_nodes
-from hybrid._loader import MAX_FILE_BYTES
-from hybrid._system import MAX_DEFINITIONS
+from hybrid.model.expr import MAX_OPERATORS, count_nodes
+from hybrid.model.loader import MAX_FILE_BYTES
+from hybrid.model.system import MAX_DEFINITIONS
 
 COULOMB_LIKE = """\
 [model]

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from problems import nonlinear_dae, riccati
 
-import hybrid._shooting as shooting
+import hybrid.orbits.shooting as shooting
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit
-from hybrid._compiled import CompiledSystem
-from hybrid._dae import ModeSolver, SensitivitySolver
+from hybrid.integrators.ida import ModeSolver, SensitivitySolver
+from hybrid.model.compiled import CompiledSystem
 
 IDA = SolverOptions(rtol=1e-10, atol=1e-12)
 EXACT = SolverOptions(integrator="exact")

@@ -14,9 +14,9 @@ import orbit_problems as op
 import pytest
 
 import hybrid
-import hybrid._shooting as shooting_module
-from hybrid import SolverOptions, continuation, periodic_orbit, simulate
-from hybrid._variational import Sensitivity
+import hybrid.orbits.shooting as shooting_module
+from hybrid import SolverOptions, continue_orbits, periodic_orbit, simulate
+from hybrid.engine.variational import Sensitivity
 
 #: Tolerances of the finite-difference period maps (tighter than the orbit's own runs).
 FD_OPTIONS = SolverOptions(rtol=1e-12, atol=1e-14)
@@ -125,7 +125,7 @@ def duffing():
 @pytest.fixture(scope="module")
 def duffing_branch(duffing):
     system, params, _ = duffing
-    return continuation(
+    return continue_orbits(
         system,
         params,
         "Omega",
@@ -319,7 +319,7 @@ def test_friction_continuation_finds_the_stick_boundary(friction):
     system, params, _ = friction
     boundary = op.friction_stick_boundary(params)
     assert abs(boundary - 0.58970847211665) <= 1e-10
-    br = continuation(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
+    br = continue_orbits(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
     assert br.status == "completed", br.message
     lost = [s for s in br.special if s.kind == "mode-lost"]
     assert len(lost) == 1, f"special points: {br.special}"
@@ -355,7 +355,7 @@ def test_periodic_orbit_needs_a_period(no_integration):
     with pytest.raises(ValueError, match="period"):
         periodic_orbit(ball, {"g": 9.81, "e": 0.5}, {"h": 1.0, "v": 0.0}, "fly")
     with pytest.raises(ValueError, match="period"):
-        continuation(ball, {"g": 9.81, "e": 0.5}, "g", (9.0, 10.0), x0={"h": 1.0, "v": 0.0}, mode0="fly")
+        continue_orbits(ball, {"g": 9.81, "e": 0.5}, "g", (9.0, 10.0), x0={"h": 1.0, "v": 0.0}, mode0="fly")
 
 
 @pytest.mark.parametrize("tol", [0.0, -1e-9, math.nan])
@@ -364,7 +364,7 @@ def test_tolerance_must_be_positive(duffing, no_integration, tol):
     with pytest.raises(ValueError, match="tol"):
         periodic_orbit(system, params, tol=tol)
     with pytest.raises(ValueError, match="tol"):
-        continuation(system, params, "Omega", (1.0, 1.1), tol=tol)
+        continue_orbits(system, params, "Omega", (1.0, 1.1), tol=tol)
 
 
 @pytest.mark.parametrize(
@@ -379,4 +379,4 @@ def test_tolerance_must_be_positive(duffing, no_integration, tol):
 def test_continuation_rejects_bad_arguments(duffing, no_integration, kwargs, match):
     system, params, _ = duffing
     with pytest.raises(ValueError, match=match):
-        continuation(system, params, **kwargs)
+        continue_orbits(system, params, **kwargs)

@@ -10,9 +10,9 @@ import pytest
 
 import hybrid_models
 from hybrid import HybridSystem, Mode, load_system, periodic_orbit, simulate
-from hybrid._plot import orbit_figure, trajectory_figure
-from hybrid._plothints import derived_plot_hints, plot_hints
 from hybrid.cli import main
+from hybrid.model.plot_hints import derived_plot_hints, plot_hints
+from hybrid.plot.trajectory import orbit_figure, trajectory_figure
 
 MODELS = Path(hybrid_models.__file__).parent
 PLOT_KEYS = ("force", "velocity", "displacements", "shade_modes")

@@ -7,8 +7,8 @@ import pytest
 
 import hybrid_models
 from hybrid import HybridSystem, Mode, ModelError, SolverOptions, Status, Transition, simulate
-from hybrid._loader import system_from_dict
 from hybrid.cli import main
+from hybrid.model.loader import system_from_dict
 
 
 def one_mode(rhs: str, guard: str = "x - 10", period: str | None = None, domain: str = "real"):
@@ -207,7 +207,7 @@ def test_sampled_outputs_evaluated_at_once_equal_the_scalar_functions(expr):
     """Outputs of the samples are evaluated elementwise on arrays (numpy's functions); each value
     equals the generated scalar function's at that sample (math's functions) to rounding, and an
     output without a state symbol (a constant) fills every sample."""
-    from hybrid._compiled import CompiledSystem
+    from hybrid.model.compiled import CompiledSystem
 
     system = _with_output(expr)
     for integrator in ("ida", "exact"):
@@ -259,7 +259,7 @@ def test_a_residual_stalled_by_an_ill_conditioned_map_says_so():
 
 
 def test_the_stall_note_is_not_given_where_the_map_is_well_conditioned():
-    from hybrid._shooting import _noisy
+    from hybrid.orbits.shooting import _noisy
 
     J = np.diag([-0.5, -0.25])  # I - M of a map contracting by 1/2 and 3/4
     assert _noisy(J, 2e-9, 1e-9, 1e-10) == ""  # cond 2: the runs resolve the tolerance

@@ -1,4 +1,4 @@
-"""Brent's bounded minimisation (hybrid._scalar) against scipy's fminbound and closed forms."""
+"""Brent's bounded minimisation (hybrid.core.scalar) against scipy's fminbound and closed forms."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from hybrid._scalar import bounded_minimum
+from hybrid.core.scalar import bounded_minimum
 
 CASES = [
     (lambda x: (x - 0.3) ** 2, 0.0, 1.0, 0.3),  # interior parabola

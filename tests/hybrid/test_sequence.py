@@ -1,4 +1,4 @@
-"""Newton in the switch times of a fixed sequence (hybrid._sequence) against independent references.
+"""Newton in the switch times of a fixed sequence (hybrid.orbits.sequence) against independent references.
 
 * its Jacobian against central finite differences of its own equations;
 * the forced Coulomb oscillator's non-stop orbit (a reset ``v = 0`` and a chained switch at each
@@ -13,11 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import hybrid._shooting as shooting
+import hybrid.orbits.shooting as shooting
 import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit
-from hybrid._sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
-from hybrid._shooting import Shooter
+from hybrid.integrators.exact import exact_flows
+from hybrid.orbits.sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
+from hybrid.orbits.shooting import Shooter
 from hybrid_models.coulomb_exact import den_hartog
 
 EXACT = SolverOptions(integrator="exact")
@@ -38,7 +39,7 @@ def test_jacobian_equals_finite_differences():
     o1, sh, t0, tr = _neighbour_guess(ab, "standard", 0.8536, 0.8538)
     events = sequence_events(tr, sh.cs, t0, sh.period)
     assert events is not None and len(events) == 4
-    modes = sh.cs.affine()
+    modes = exact_flows(sh.cs)
     m0 = sh.cs.mode_id(o1.mode0)
     a0 = modes[m0]
     nd = a0.d.size
@@ -74,12 +75,12 @@ def test_coulomb_non_stop_orbit_equals_den_hartog():
         sh.cs.modes[sh.cs.mode_id(ev.source)].guards[0].reset_expr for ev in tr.events if not ev.chained
     )
     m0 = sh.cs.mode_id(o1.mode0)
-    yd = solve_sequence(sh.cs.affine(), m0, t0, sh.period, o1.x0, events)
+    yd = solve_sequence(exact_flows(sh.cs), m0, t0, sh.period, o1.x0, events)
     assert yd is not None
     o2 = periodic_orbit(co, co.preset("forced", Omega=0.83), o1.x0, o1.mode0, t0=t0, transient_periods=0,
                         options=EXACT, tol=1e-12)  # fmt: skip
     assert o2.converged
-    np.testing.assert_allclose(yd, o2.x0[sh.cs.affine()[m0].d], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(yd, o2.x0[exact_flows(sh.cs)[m0].d], rtol=0, atol=1e-12)
     p = co.preset("forced")
     assert o2.amplitude["x"] == pytest.approx(den_hartog(p["m"], p["k"], p["R"], p["F"], 0.83), rel=1e-11)
 
@@ -128,7 +129,7 @@ def test_does_not_apply_without_switches_or_with_times_out_of_order():
     o1, sh, t0, tr = _neighbour_guess(ab, "standard", 0.8536, 0.8538)
     events = sequence_events(tr, sh.cs, t0, sh.period)
     m0 = sh.cs.mode_id(o1.mode0)
-    modes = sh.cs.affine()
+    modes = exact_flows(sh.cs)
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, []) is None
     swapped = [Switch(events[1].t, events[0].steps), Switch(events[0].t, events[1].steps), *events[2:]]
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, swapped) is None

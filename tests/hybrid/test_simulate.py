@@ -34,7 +34,7 @@ from hybrid import (
     initial_state,
     simulate,
 )
-from hybrid._compiled import CompiledSystem
+from hybrid.model.compiled import CompiledSystem
 
 
 # ----------------------------------------------------------------------------

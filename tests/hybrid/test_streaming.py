@@ -7,8 +7,8 @@ import tracemalloc
 import numpy as np
 import pytest
 
-import hybrid._record as record_module
-import hybrid._simulate as simulate_module
+import hybrid.engine.record as record_module
+import hybrid.engine.simulate as simulate_module
 import hybrid_models
 from hybrid import (
     Envelope,
@@ -23,7 +23,7 @@ from hybrid import (
     Transition,
     simulate,
 )
-from hybrid._io import trajectory_summary, write_events_csv, write_trajectory_csv
+from hybrid.engine.io import trajectory_summary, write_events_csv, write_trajectory_csv
 
 
 @pytest.fixture

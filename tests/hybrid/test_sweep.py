@@ -23,9 +23,9 @@ import pytest
 from problems import forced_oscillator
 
 import hybrid
-from hybrid._chart import chart_rows, write_charts
-from hybrid._sweep import MANIFEST, model_data, system_from_data
 from hybrid.cli import main
+from hybrid.plot.chart import chart_rows, write_charts
+from hybrid.studies.sweep import MANIFEST, model_data, system_from_data
 
 EXACT = hybrid.SolverOptions(integrator="exact")
 P_RANGE = (0.5, 1.5)
@@ -115,7 +115,7 @@ def test_axes():
 
 
 def test_model_data_round_trip_and_hash():
-    from hybrid.cli import resolve_model
+    from hybrid import resolve_model
 
     for name in ("absorber", "isolator", "coulomb"):
         system = resolve_model(name)
@@ -323,7 +323,7 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
         workers = children(proc.pid)
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
-        # its worker process dies with it (PR_SET_PDEATHSIG, hybrid._cli_sweep.die_with_parent)
+        # its worker process dies with it (PR_SET_PDEATHSIG, hybrid.cli.sweep.die_with_parent)
         t_end = time.monotonic() + 30
         while any(alive(w) for w in workers) and time.monotonic() < t_end:
             time.sleep(0.01)
@@ -440,7 +440,7 @@ def test_cli_records_a_failed_point_goes_on_and_exits_1(tmp_path, capsys):
 def test_progress_bar_shows_done_failed_and_time_left():
     import io
 
-    from hybrid._cli_sweep import _SweepBar
+    from hybrid.cli.sweep import _SweepBar
 
     bar = _SweepBar("sweep", True)
     bar.bar.stream = io.StringIO()

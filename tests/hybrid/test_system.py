@@ -13,7 +13,7 @@ from problems import logistic, nonlinear_dae, riccati
 
 import hybrid_models
 from hybrid import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
-from hybrid._compiled import CompiledSystem, lead_sign
+from hybrid.model.compiled import CompiledSystem, lead_sign
 
 
 def _toy(**over):

@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import SolverOptions, continuation, periodic_orbit
-from hybrid._orbit import balance_scales
-from hybrid._shooting import Shooter
+from hybrid import SolverOptions, continue_orbits, periodic_orbit
+from hybrid.integrators.exact import exact_flows
+from hybrid.orbits.orbit import balance_scales
+from hybrid.orbits.shooting import Shooter
 
 EXACT = SolverOptions(integrator="exact")
 #: The absorber's first band edges (standard parameters), from the closed forms (test_continuation).
@@ -63,7 +64,7 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     assert ref.converged and o.converged, o.message
     assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
     if integrator == "exact":
-        assert all(am.flow().eigen for am in Shooter(ab, o.params, EXACT).cs.affine())
+        assert all(am.flow().eigen for am in exact_flows(Shooter(ab, o.params, EXACT).cs))
     # displacements equal, velocities sqrt(c) times larger (exact: 1.6e-10 apart at c = 1e6, though
     # each orbit's residual is 5e-16); IDA to cond x rtol (about 4e-6 here)
     rel = 1e-9 if integrator == "exact" else 1e-4
@@ -76,7 +77,7 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
 @pytest.mark.parametrize("c", [1e4, 1e6])
 def test_continuation_in_engineering_units_locates_the_band_onset(c):
     w = math.sqrt(c)  # forcing periods of 74 ms and 7.4 ms
-    br = continuation(hybrid_models.absorber(), _scaled(c, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
+    br = continue_orbits(hybrid_models.absorber(), _scaled(c, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
                       options=EXACT)  # fmt: skip
     assert br.status == "completed", br.message
     onset = [s for s in br.special if s.kind == "mode-gained"]

@@ -17,10 +17,10 @@ import pytest
 
 import hybrid_models
 from hybrid import SolverOptions, simulate
-from hybrid._autobranch import hopf_branch, orbit_branch
-from hybrid._autonomous import autonomous_orbit
-from hybrid._equilibria import equilibrium, locate_hopf
-from hybrid._palc import PalcSettings
+from hybrid.continuation.autonomous import hopf_branch, orbit_branch
+from hybrid.continuation.palc import PalcSettings
+from hybrid.orbits.autonomous import autonomous_orbit
+from hybrid.orbits.equilibria import equilibrium, locate_hopf
 
 P = {"m": 2.0, "k": 3.0, "c": 0.0, "Fs": 1.2, "Fk": 0.5}
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid._frc import default_range
-from hybrid._linear import natural_frequencies, reduced_jacobian
+from hybrid.continuation.frc import default_range
+from hybrid.model.linear import natural_frequencies, reduced_jacobian
 from hybrid_models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
 from hybrid_models.overlays import STICK
 

@@ -26,8 +26,8 @@ from hypothesis import HealthCheck, Phase, event, given, settings
 from hypothesis import strategies as st
 
 import hybrid
-from hybrid._io import trajectory_summary
-from hybrid.cli import resolve_model
+from hybrid import resolve_model
+from hybrid.engine.io import trajectory_summary
 
 #: Physical ranges drawn [SI]: around the paper's standard values (m1 = 1 kg, m2 = 0.1 kg,
 #: c1 = 1 N/m, c2 = 0.1 N/m, c3 = 10 N/m, R = 0.5 N, F = 0.01 N), wide enough for stick, stick-slip

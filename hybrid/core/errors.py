@@ -1,0 +1,95 @@
+"""The exceptions of :mod:`hybrid`: one base, :class:`HybridError`, and a typed subclass per cause.
+
+Every error that :mod:`hybrid` raises on purpose derives from :class:`HybridError`, so that a
+caller may catch all of them at once. Each subclass also derives from the built-in exception
+a caller would expect for its cause (bad input: :class:`ValueError`; a failed computation:
+:class:`RuntimeError`), so ``except ValueError`` keeps working.
+
+Bad input raises at construction or before any integration; a computation that fails is
+returned as data where a result type exists (``status``, ``reason``, ``message``) and raised
+only where there is none, or where the caller asked for it (``simulate(..., throw=True)``).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "HybridError",
+    "ModelError",
+    "ExpressionError",
+    "NotAffineError",
+    "SimulationError",
+    "AlgebraicSolveError",
+    "IntegratorError",
+    "BudgetExceeded",
+    "GrazingSwitchError",
+    "ParameterOutOfDomain",
+    "SampleCapReached",
+    "WorkerError",
+]
+
+
+class HybridError(Exception):
+    """Base of every exception raised by :mod:`hybrid` on purpose."""
+
+
+class ModelError(HybridError, ValueError):
+    """A hybrid-system definition is inconsistent (unknown name, missing equation, ...)."""
+
+
+class ExpressionError(ModelError):
+    """An expression of a model is malformed, uses a forbidden construct or an unknown name."""
+
+
+class NotAffineError(ExpressionError):
+    """A mode is not affine in its state (or time enters otherwise than through one forcing
+    frequency): the exact integrator cannot take it."""
+
+
+class SimulationError(HybridError, RuntimeError):
+    """A simulation stopped before the end of its time span (raised when ``throw=True``)."""
+
+
+class AlgebraicSolveError(HybridError, RuntimeError):
+    """The slave variables of a mode could not be solved from their algebraic equations."""
+
+
+class IntegratorError(HybridError, RuntimeError):
+    """An integrator failed outside a simulation's event loop (e.g. in the variational
+    equations of a monodromy, or interpolating a step)."""
+
+
+class BudgetExceeded(HybridError):
+    """A budget of an integration was exhausted.
+
+    Attributes
+    ----------
+    kind : {"steps", "projected", "time"}
+        ``"steps"``: ``SolverOptions.max_steps`` residual evaluations were used;
+        ``"projected"``: at its rate so far the run would need several times that;
+        ``"time"``: the wall-clock budget or the computation's deadline ran out.
+    message : str
+    """
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+
+class GrazingSwitchError(HybridError, ZeroDivisionError):
+    """A guard crosses zero at a vanishing rate (a grazing switch): no saltation matrix exists
+    there, so no monodromy matrix either. (A :class:`ZeroDivisionError`: the saltation matrix
+    divides by that rate.)"""
+
+
+class ParameterOutOfDomain(HybridError, ValueError, RuntimeError):
+    """An iteration (e.g. a continuation's corrector) reached a parameter value outside its
+    domain: a failed iteration (a :class:`RuntimeError` to the caller's recovery), not bad input."""
+
+
+class SampleCapReached(HybridError):
+    """A run would record more samples than it may keep."""
+
+
+class WorkerError(HybridError, RuntimeError):
+    """A worker process of a parallel computation failed; its message is in this one."""
