@@ -6,15 +6,20 @@ transitions and resets. :func:`simulate` integrates it event-driven, with the
 slave (algebraic) variables of each mode solved as a DAE by IDA.
 """
 
+from hybrid.continuation.branch import Branch as Branch
+from hybrid.continuation.branch import forcing_parameter as forcing_parameter
+from hybrid.model.elements import Mode as Mode
+from hybrid.model.elements import Parameter as Parameter
+from hybrid.model.elements import Transition as Transition
+from hybrid.model.elements import Variable as Variable
+
 from .continuation.autonomous import EquilibriumBranch as EquilibriumBranch
 from .continuation.autonomous import OrbitBranch as OrbitBranch
 from .continuation.autonomous import equilibrium_branch as equilibrium_branch
 from .continuation.autonomous import hopf_branch as hopf_branch
 from .continuation.autonomous import orbit_branch as orbit_branch
-from .continuation.forced import Branch as Branch
 from .continuation.forced import SpecialPoint as SpecialPoint
 from .continuation.forced import continue_orbits as continue_orbits
-from .continuation.forced import forcing_parameter as forcing_parameter
 from .continuation.frc import FrequencyResponse as FrequencyResponse
 from .continuation.frc import frequency_response as frequency_response
 from .continuation.palc import PalcSettings as PalcSettings
@@ -43,11 +48,7 @@ from .model.loader import system_from_dict as system_from_dict
 from .model.plot_hints import plot_hints as plot_hints
 from .model.registry import resolve_model as resolve_model
 from .model.system import HybridSystem as HybridSystem
-from .model.system import Mode as Mode
 from .model.system import ModelError as ModelError
-from .model.system import Parameter as Parameter
-from .model.system import Transition as Transition
-from .model.system import Variable as Variable
 from .orbits.autonomous import autonomous_orbit as autonomous_orbit
 from .orbits.equilibria import Equilibrium as Equilibrium
 from .orbits.equilibria import equilibrium as equilibrium

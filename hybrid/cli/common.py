@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..core.errors import HybridError
 from ..core.options import INTEGRATORS, SolverOptions
-from ..integrators.exact import exact_flows
+from ..integrators.affine import exact_flows
 from ..model.compiled import CompiledSystem
 from ..model.plot_hints import plot_hints
 from ..model.registry import is_model_file

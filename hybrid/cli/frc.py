@@ -14,7 +14,7 @@ from importlib.metadata import entry_points
 
 import numpy as np
 
-from ..continuation.forced import forcing_parameter, orbit_row
+from ..continuation.branch import forcing_parameter, orbit_row
 from ..continuation.frc import default_range, frequency_response
 from ..core.budget import time_limit
 from ..core.options import SolverOptions

@@ -42,7 +42,8 @@ from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem
 from ..orbits.orbit import PeriodicOrbit
 from ..orbits.shooting import shoot_orbit
-from .forced import Branch, continue_orbits, forcing_parameter
+from .branch import Branch, forcing_parameter
+from .forced import continue_orbits
 from .frc import _cuts, default_range
 
 __all__ = ["find_by_continuation", "anchors", "FRACTIONS", "MAX_POINTS", "FALLBACK_SECONDS"]

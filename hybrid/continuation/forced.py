@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -30,8 +30,8 @@ import numpy as np
 from ..core.budget import BudgetExceeded
 from ..core.options import ContinuationOptions, SolverOptions, check_samples
 from ..engine.simulate import check_time_range, initial_state
-from ..model.expr import free_symbols
 from ..model.system import HybridSystem
+from ..orbits.newton import COARSE_RTOL, COARSE_SWITCH, NewtonMap, coarse_shooter, state_scale
 from ..orbits.orbit import (
     FAMILY_TOL,
     ORBIT_OPTIONS,
@@ -42,129 +42,15 @@ from ..orbits.orbit import (
     is_family,
     mode_fractions,
 )
-from ..orbits.shooting import (
-    COARSE_RTOL,
-    COARSE_SWITCH,
-    NewtonMap,
-    Shooter,
-    choose_section_period,
-    coarse_shooter,
-    solve_orbit,
-    state_scale,
-)
+from ..orbits.section import choose_section_period
+from ..orbits.shooter import Shooter
+from ..orbits.shooting import solve_orbit
+from .branch import Branch, forcing_parameter
 from .special import SpecialPoint, detect, locate
 
-__all__ = ["Branch", "SpecialPoint", "continue_orbits", "forcing_parameter", "orbit_row"]
+__all__ = ["SpecialPoint", "continue_orbits"]
 
 _FAILURES = (ArithmeticError, RuntimeError, np.linalg.LinAlgError)
-
-
-@dataclass
-class Branch:
-    """A branch of periodic orbits.
-
-    Attributes
-    ----------
-    system : HybridSystem
-    params : dict
-        Parameter values (the continued one at its start value).
-    parameter : str
-        The continued parameter.
-    points : list of PeriodicOrbit
-        Orbits in branch order (located special points included).
-    special : list of SpecialPoint
-    status : str
-        ``"completed"`` (left the range or reached ``max_points``) or ``"stopped"``.
-    message : str
-    reason : str
-        Why a stopped branch stopped: ``"unbounded"`` (the response grows without bound),
-        ``"stalled"`` (the corrector failed ``max_failures`` times in a row), ``"no-start"``
-        (no first orbit), ``"degenerate"`` (``I - M`` vanishes at the first orbit: every nearby
-        state is periodic, e.g. an unforced system at rest, so there is no branch to follow),
-        ``"budget"`` (a run's budget or the deadline), ``"interrupted"``; ``""`` if completed.
-    """
-
-    system: HybridSystem
-    params: dict
-    parameter: str
-    points: list = field(default_factory=list)
-    special: list = field(default_factory=list)
-    status: str = "completed"
-    message: str = ""
-    reason: str = ""
-
-    @property
-    def p(self) -> np.ndarray:
-        """Parameter value of every point."""
-        return np.array([o.params[self.parameter] for o in self.points])
-
-    def amplitude(self, name: str) -> np.ndarray:
-        """``max |x|`` of ``name`` at every point."""
-        return np.array([o.amplitude[name] for o in self.points])
-
-    def half_peak_to_peak(self, name: str) -> np.ndarray:
-        return np.array([o.half_peak_to_peak[name] for o in self.points])
-
-    @property
-    def stability(self) -> list[str]:
-        return [o.stability for o in self.points]
-
-    def to_rows(self) -> list[dict]:
-        """One dict per point (for CSV)."""
-        return [orbit_row(self.parameter, o) for o in self.points]
-
-    def __repr__(self) -> str:
-        kinds = ", ".join(f"{s.kind}@{s.parameter:.6g}" for s in self.special)
-        if not self.points:
-            return f"Branch({self.system.name}, {self.parameter}, no point, {self.status}: {self.message})"
-        return (
-            f"Branch({self.system.name}, {self.parameter} in [{self.p.min():.6g}, {self.p.max():.6g}], "
-            f"{len(self.points)} points, special: [{kinds}], {self.status})"
-        )
-
-
-def orbit_row(parameter: str, o: PeriodicOrbit) -> dict:
-    """One orbit of a branch as a flat dict (a CSV row): parameter, stability, amplitudes, ..."""
-    row = {
-        parameter: o.params[parameter],
-        "stability": o.stability,
-        "transitions_per_period": o.transitions_per_period,
-        "mode_sequence": " ".join(o.mode_sequence),
-        "max_abs_multiplier": float(np.max(np.abs(o.floquet_multipliers)))
-        if o.floquet_multipliers.size
-        else float("nan"),
-        "residual": o.residual,
-    }
-    for m in o.system.mode_names:  # every mode, so that all rows have the same columns
-        row[f"fraction_{m}"] = o.mode_fractions.get(m, 0.0)
-    for n, v in o.amplitude.items():
-        row[f"amplitude_{n}"] = v
-    for n, v in o.half_peak_to_peak.items():
-        row[f"half_peak_to_peak_{n}"] = v
-    return row
-
-
-def forcing_parameter(system: HybridSystem) -> str:
-    """The one parameter the forcing period depends on (e.g. a forcing frequency).
-
-    Raises
-    ------
-    ValueError
-        If the model declares no period, or its period depends on no parameter or on several.
-    """
-    pe = system._cache.get("period")
-    if pe is None:
-        raise ValueError(
-            f"model `{system.name}` declares no forcing `period`: this continuation of forced orbits needs "
-            "one (an autonomous model's orbits: hybrid.orbit_branch, hybrid.hopf_branch, `hybrid cont`)"
-        )
-    names = sorted(free_symbols(pe) & set(system.parameter_names))
-    if len(names) != 1:
-        raise ValueError(
-            f"model `{system.name}`: its period depends on {len(names)} parameters "
-            f"({', '.join(names) or 'none'}); name the parameter to continue in"
-        )
-    return names[0]
 
 
 # ----------------------------------------------------------------------

@@ -23,7 +23,8 @@ from ..core.budget import current_deadline, deadline_passed
 from ..core.budget import restore_deadline as _deadline
 from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem, shared
-from .forced import Branch, continue_orbits, forcing_parameter
+from .branch import Branch, forcing_parameter
+from .forced import continue_orbits
 
 __all__ = ["FrequencyResponse", "frequency_response", "default_range"]
 

@@ -28,10 +28,12 @@ import numpy as np
 
 from ..core.budget import Budget
 from ..core.options import SolverOptions
-from ..integrators.exact import ExactSensitivity, NotAffineError, affine_flows, exact_flows
+from ..integrators.affine import affine_flows, exact_flows
+from ..integrators.exact import ExactSensitivity, NotAffineError
 from ..integrators.ida import SensitivitySolver
+from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledMode, CompiledSystem
-from ..model.expr import compile_scalar, diff
+from ..model.expr import diff
 from .trajectory import TransitionRecord
 
 __all__ = ["Sensitivity", "projection_jacobian", "saltation"]

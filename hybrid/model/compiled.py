@@ -21,22 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import AlgebraicSolveError
-from .expr import (
-    Expr,
-    compile_many,
-    diff,
-    free_symbols,
-    neg,
-    num,
-    runtime_namespace,
-    set_runtime,
-    sub,
-    substitute,
-    sym,
-    taylor_eval,
-    taylor_eval_many,
-)
+from .codegen import compile_many, runtime_namespace, set_runtime
+from .expr import Expr, diff, free_symbols, neg, num, sub, substitute, sym
 from .system import HybridSystem
+from .taylor import taylor_eval, taylor_eval_many
 
 __all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "AlgebraicSolveError"]
 

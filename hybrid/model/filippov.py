@@ -53,6 +53,7 @@ import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from .elements import Mode, Transition, Variable
 from .expr import (
     ONE,
     ZERO,
@@ -69,7 +70,7 @@ from .expr import (
     sym,
     to_string,
 )
-from .system import HybridSystem, Mode, ModelError, Transition, Variable
+from .system import HybridSystem, ModelError
 
 __all__ = ["filippov_system", "Surface", "surfaces"]
 

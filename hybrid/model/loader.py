@@ -60,8 +60,9 @@ from collections.abc import Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
 
+from .elements import Mode, Parameter, Transition, Variable
 from .filippov import filippov_system
-from .system import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
+from .system import HybridSystem, ModelError
 
 __all__ = [
     "load_system",

@@ -14,7 +14,8 @@ import math
 from collections.abc import Mapping
 
 from ..core.errors import ExpressionError, ModelError
-from .expr import Expr, compile_scalar, parse
+from .codegen import compile_scalar
+from .expr import Expr, parse
 
 __all__ = ["validate_hints", "period_guess"]
 

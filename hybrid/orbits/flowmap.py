@@ -27,10 +27,10 @@ from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
 from ..engine.variational import Sensitivity, guard_index, saltation
-from ..integrators.exact import exact_flows
+from ..integrators.affine import exact_flows
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
-from .shooting import compiled
+from .shooter import compiled
 
 __all__ = ["FlowMap", "Evaluation"]
 

@@ -17,7 +17,7 @@ from ..core.balance import balance
 from ..core.options import SolverOptions
 from ..core.scalar import bounded_minimum
 from ..engine.trajectory import Trajectory, sampled_trajectory
-from ..integrators.exact import exact_flows
+from ..integrators.affine import exact_flows
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 

@@ -38,7 +38,8 @@ from functools import lru_cache
 import numpy as np
 
 from ..engine.variational import ResetJacobians
-from ..integrators.exact import AffineMode, NotAffineError, affine_coefficients
+from ..integrators.affine import AffineMode, affine_coefficients
+from ..integrators.exact import NotAffineError
 from ..model.expr import Expr
 
 __all__ = ["Switch", "sequence_events", "solve_sequence"]

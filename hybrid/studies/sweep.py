@@ -39,14 +39,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..continuation.forced import forcing_parameter
+from ..continuation.branch import forcing_parameter
 from ..continuation.frc import default_range, frequency_response
 from ..core.budget import time_limit
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.version import __version__
 from ..engine.io import to_json
+from ..model.elements import Mode, Parameter, Transition, Variable
 from ..model.plot_hints import plot_hints
-from ..model.system import HybridSystem, Mode, Parameter, Transition, Variable
+from ..model.system import HybridSystem
 
 __all__ = [
     "Axis",

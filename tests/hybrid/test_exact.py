@@ -12,7 +12,8 @@ import pytest
 
 import hybrid_models
 from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
-from hybrid.integrators.exact import ExactModeSolver, NotAffineError, affine_mode, affine_system
+from hybrid.integrators.affine import affine_mode, affine_system
+from hybrid.integrators.exact import ExactModeSolver, NotAffineError
 from hybrid.integrators.ida import ROOT, TSTOP
 from hybrid.model.compiled import CompiledSystem
 from hybrid.model.linear import reduced_jacobian
@@ -237,7 +238,7 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
 def test_parametric_analysis_equals_the_folded_one(name, preset):
     """The analysis done once on the system's expressions (parameters as symbols), evaluated at random
     parameter values, gives the M, P, Q, W of the analysis of the expressions with the values folded in."""
-    from hybrid.integrators.exact import affine_flows
+    from hybrid.integrators.affine import affine_flows
 
     system = getattr(hybrid_models, name)()
     base = system.preset(preset)
@@ -257,7 +258,7 @@ def test_parametric_analysis_equals_the_folded_one(name, preset):
 
 
 def test_parametric_analysis_names_the_mode_of_a_second_frequency():
-    from hybrid.integrators.exact import affine_flows
+    from hybrid.integrators.affine import affine_flows
 
     system = _oscillator(extra={"v": "-x + sin(W*t) + sin(w0*t)"})
     with pytest.raises(NotAffineError, match=r"mode `free`: two forcing frequencies"):
@@ -388,7 +389,7 @@ def test_frechet_derivative_of_the_flow_matches_a_central_difference(defective):
     difference of the exponential (``scipy.linalg.expm``, step 1e-5: error about 1e-10)."""
     from scipy.linalg import expm
 
-    from hybrid.integrators.exact import Flow
+    from hybrid.integrators.flow import Flow
 
     rng = np.random.default_rng(3)
     if defective:  # a Jordan block: no eigenvector basis
@@ -408,7 +409,7 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
     flows) against IDA's variational equations at rtol 1e-12 (the central difference of two exact
     flows it replaces agreed to 6e-9 only)."""
     from hybrid import SolverOptions, periodic_orbit
-    from hybrid.orbits.shooting import Shooter
+    from hybrid.orbits.shooter import Shooter
 
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.8545)

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from hybrid import FUNCTIONS, ExpressionError
-from hybrid.model.expr import compile_scalar, diff, free_symbols, parse, substitute, taylor_eval
+from hybrid.model.codegen import compile_scalar
+from hybrid.model.expr import diff, free_symbols, parse, substitute
+from hybrid.model.taylor import taylor_eval
 
 KNOWN = {"x", "y", "t", "k"}
 WHERE = "test expression"

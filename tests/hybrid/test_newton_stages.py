@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from problems import nonlinear_dae, riccati
 
-import hybrid.orbits.shooting as shooting
+import hybrid.orbits.newton as newton
+import hybrid.orbits.shooter as shooting
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit
 from hybrid.integrators.ida import ModeSolver, SensitivitySolver
@@ -73,7 +74,7 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
     o = _neighbour(system, start, p, IDA)
     assert o.converged, o.message
     # the first iterations ran at the coarse tolerance, the result at the requested one
-    assert count.get(("run", shooting.COARSE_RTOL), 0) >= 2
+    assert count.get(("run", newton.COARSE_RTOL), 0) >= 2
     assert count[("monodromy", IDA.rtol)] == 1  # the result's, at its section state
     ref = periodic_orbit(system, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT)
     assert ref.converged and ref.t0 == o.t0
@@ -99,7 +100,7 @@ def test_a_failing_coarse_stage_falls_back_on_the_requested_tolerances(absorber_
     mono = shooting.Shooter.monodromy
 
     def fails_when_coarse(self, tr):
-        if self.options.rtol == shooting.COARSE_RTOL:
+        if self.options.rtol == newton.COARSE_RTOL:
             raise RuntimeError("IDA failed in the variational equations")
         return mono(self, tr)
 

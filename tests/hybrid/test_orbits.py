@@ -14,8 +14,8 @@ import orbit_problems as op
 import pytest
 
 import hybrid
-import hybrid.orbits.shooting as shooting_module
 from hybrid import SolverOptions, continue_orbits, periodic_orbit, simulate
+from hybrid.engine.eventloop import Run
 from hybrid.engine.variational import Sensitivity
 
 #: Tolerances of the finite-difference period maps (tighter than the orbit's own runs).
@@ -338,7 +338,7 @@ def no_integration(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("an integration started before the input was checked")
 
-    monkeypatch.setattr(shooting_module, "run_compiled", forbidden)
+    monkeypatch.setattr(Run, "execute", forbidden)  # every run goes through the event loop
     monkeypatch.setattr(Sensitivity, "fundamental", forbidden)
 
 

@@ -259,7 +259,7 @@ def test_a_residual_stalled_by_an_ill_conditioned_map_says_so():
 
 
 def test_the_stall_note_is_not_given_where_the_map_is_well_conditioned():
-    from hybrid.orbits.shooting import _noisy
+    from hybrid.orbits.newton import _noisy
 
     J = np.diag([-0.5, -0.25])  # I - M of a map contracting by 1/2 and 3/4
     assert _noisy(J, 2e-9, 1e-9, 1e-10) == ""  # cond 2: the runs resolve the tolerance

@@ -13,12 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import hybrid.orbits.shooting as shooting
+import hybrid.orbits.newton as newton
 import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit
-from hybrid.integrators.exact import exact_flows
+from hybrid.integrators.affine import exact_flows
 from hybrid.orbits.sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
-from hybrid.orbits.shooting import Shooter
+from hybrid.orbits.shooter import Shooter
 from hybrid_models.coulomb_exact import den_hartog
 
 EXACT = SolverOptions(integrator="exact")
@@ -112,7 +112,7 @@ def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
         return out, counts
 
     fast, fast_runs = chain()
-    monkeypatch.setattr(shooting, "_sequence_candidate", lambda *a, **k: None)
+    monkeypatch.setattr(newton, "_sequence_candidate", lambda *a, **k: None)
     plain, plain_runs = chain()
     for a, b in zip(fast, plain, strict=True):
         assert a.mode_sequence == b.mode_sequence and a.t0 == b.t0
@@ -192,7 +192,7 @@ def test_a_guess_outside_newtons_contraction_keeps_the_branch(tmp_path, monkeypa
         return o
 
     with_sequence = solve()
-    monkeypatch.setattr(shooting, "_sequence_candidate", lambda *a, **k: None)
+    monkeypatch.setattr(newton, "_sequence_candidate", lambda *a, **k: None)
     plain = solve()
     assert plain.stable and with_sequence.stable
     assert np.max(np.abs(with_sequence.x0 - plain.x0)) <= 1e-10 * np.max(np.abs(plain.x0))

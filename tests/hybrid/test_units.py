@@ -20,9 +20,9 @@ import pytest
 
 import hybrid_models
 from hybrid import SolverOptions, continue_orbits, periodic_orbit
-from hybrid.integrators.exact import exact_flows
+from hybrid.integrators.affine import exact_flows
 from hybrid.orbits.orbit import balance_scales
-from hybrid.orbits.shooting import Shooter
+from hybrid.orbits.shooter import Shooter
 
 EXACT = SolverOptions(integrator="exact")
 #: The absorber's first band edges (standard parameters), from the closed forms (test_continuation).
