@@ -299,7 +299,7 @@ def cmd_frc(args) -> int:
     n = sum(len(b.points) for b in fr.branches)
     info(f"{n} periodic orbits in {wall:.1f} s")
     family = sum(1 for b in fr.branches for o in b.points if o.family)
-    if family and system._cache.get("gauge") is None:
+    if family and system.parsed.gauge is None:
         info(
             f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
             "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "

@@ -109,7 +109,7 @@ def forcing_parameter(system: HybridSystem) -> str:
     ValueError
         If the model declares no period, or its period depends on no parameter or on several.
     """
-    pe = system._cache.get("period")
+    pe = system.parsed.period
     if pe is None:
         raise ValueError(
             f"model `{system.name}` declares no forcing `period`: this continuation of forced orbits needs "

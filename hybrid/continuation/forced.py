@@ -390,10 +390,12 @@ class _Fail(Exception):
     pass
 
 
-#: The branch's arclength takes the balanced units of its first point only where their factors
-#: span more than this (units, e.g. velocities hundreds of times the displacements: 512 with the
-#: absorber's time scale shrunk 100 times); below it, as on the shipped dampers (up to 32 on the
-#: isolator's stuck orbits, from its dynamics, not its units), the state keeps one scale.
+#: The branch's arclength takes the balanced units of its first point (Parlett-Reinsch factors of
+#: ``I - M``, powers of 2) only where those factors span more than this ratio: a spread that large
+#: comes from the state's units (velocities hundreds of times the displacements in a model written
+#: in engineering units), a smaller one from its dynamics, which the arclength should not reweight.
+#: (Measured: a model in engineering units spreads 512 and more; the shipped models at most 32;
+#: docs/orbits.md, "Units of the state".)
 GEOMETRY_RATIO = 64.0
 
 
@@ -410,10 +412,10 @@ def _row_weights(D: np.ndarray, nd: int, rows: int) -> np.ndarray:
 SAMPLE_AHEAD = 1e-5
 
 #: Largest condition number of the (scaled) bordered Newton system for which a step may take
-#: ``M`` from the coarse map (about 1e-6 relative error): a bound on the residual it leaves is
-#: ``COARSE_COND x 1e-6`` of the one it starts from, but on the absorber's bands (the bordered
-#: systems' condition 3e2 to 3e3) thresholds from 1e4 to 1e6 give the corrector the same number
-#: of iterations as the requested map's monodromy; ill-conditioned beyond it, the requested one.
+#: ``M`` from the coarse map (relative error about ``COARSE_RTOL``, 1e-7 to 1e-6): the Newton step
+#: it gives is then wrong by at most ``COARSE_COND x 1e-6``, a tenth, so the corrector still
+#: contracts; beyond it, the monodromy of the requested map. (Measured: thresholds from 1e4 to
+#: 1e6 give the same iteration counts on the shipped models' branches; docs/orbits.md.)
 COARSE_COND = 1e5
 
 

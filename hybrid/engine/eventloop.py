@@ -296,7 +296,8 @@ class Run:
                 raise _Stop(
                     Status.NO_ADMISSIBLE_MODE,
                     f"no admissible mode at t={t!r}: the vector fields send the state around {path}; "
-                    "check the guards' directions and the sliding (stick) mode of the model",
+                    "check the guards' directions and the model's sliding modes (a state that both neighbours "
+                    "push onto a surface needs a mode that holds it there)",
                 )
             self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True)
             pending = len(self.events) - 1

@@ -459,37 +459,39 @@ def system_analysis(system) -> AffineAnalysis:
     symbols. Raises NotAffineError (also on later calls) if a mode is not
     affine for every parameter value.
     """
-    cached = system._cache.get("affine")
-    if cached is None:
-        names = tuple(system.variable_names)
-        modes = []
-        for mode in system.modes:
-            data = system._cache["modes"][mode.name]
-            derivs, alg = data["derivatives"], data["algebraic"]
-            guards = [
-                (tr.name, td["guard"])
-                for tr, td in zip(system.transitions, system._cache["transitions"], strict=True)
-                if tr.source == mode.name
-            ]
-            modes.append(
-                (
-                    mode.name,
-                    names,
-                    [i for i, nm in enumerate(names) if nm in derivs],
-                    [i for i, nm in enumerate(names) if nm in alg],
-                    {i: derivs[nm] for i, nm in enumerate(names) if nm in derivs},
-                    {i: alg[nm] for i, nm in enumerate(names) if nm in alg},
-                    guards,
-                )
-            )
-        try:
-            cached = AffineAnalysis(modes, tuple(system.quadratures), tuple(system.parameter_names))
-        except NotAffineError as exc:
-            cached = exc
-        system._set_cache("affine", cached)
+    cached = system.cache.get("affine_analysis", lambda: _analyse(system))
     if isinstance(cached, NotAffineError):
         raise NotAffineError(str(cached))
     return cached
+
+
+def _analyse(system) -> AffineAnalysis | NotAffineError:
+    """The analysis of :func:`system_analysis` (or the error that refuses it)."""
+    names = tuple(system.variable_names)
+    modes = []
+    for mode in system.modes:
+        data = system.parsed.modes[mode.name]
+        derivs, alg = data["derivatives"], data["algebraic"]
+        guards = [
+            (tr.name, td["guard"])
+            for tr, td in zip(system.transitions, system.parsed.transitions, strict=True)
+            if tr.source == mode.name
+        ]
+        modes.append(
+            (
+                mode.name,
+                names,
+                [i for i, nm in enumerate(names) if nm in derivs],
+                [i for i, nm in enumerate(names) if nm in alg],
+                {i: derivs[nm] for i, nm in enumerate(names) if nm in derivs},
+                {i: alg[nm] for i, nm in enumerate(names) if nm in alg},
+                guards,
+            )
+        )
+    try:
+        return AffineAnalysis(modes, tuple(system.quadratures), tuple(system.parameter_names))
+    except NotAffineError as exc:
+        return exc  # kept: every later call raises it again
 
 
 def affine_flows(system, params: Mapping[str, float], cms=None) -> list[AffineMode]:

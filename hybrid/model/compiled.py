@@ -14,6 +14,7 @@ so that the iteration matrix is ``dF/dy + cj dF/dy'``.
 from __future__ import annotations
 
 import math
+import threading
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ from .expr import Expr, diff, free_symbols, neg, num, sub, substitute, sym
 from .system import HybridSystem
 from .taylor import taylor_eval, taylor_eval_many
 
-__all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "AlgebraicSolveError"]
+__all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "CompiledPool", "lend", "AlgebraicSolveError"]
 
 #: Prefix of the generated residual's slots for ``y'`` (not a valid model name: no clash).
 _YP = " yp"
@@ -75,7 +76,7 @@ class CompiledMode:
         namespace: dict | None = None,
     ):
         mode = system.modes[index]
-        data = system._cache["modes"][mode.name]
+        data = system.parsed.modes[mode.name]
         names = tuple(system.variable_names) + tuple(free)
         self.name = mode.name
         self.index = index
@@ -152,7 +153,7 @@ class CompiledMode:
         # Guards of transitions leaving this mode.
         guards = []
         mode_index = {m.name: k for k, m in enumerate(system.modes)}
-        for k, (tr, td) in enumerate(zip(system.transitions, system._cache["transitions"], strict=True)):
+        for k, (tr, td) in enumerate(zip(system.transitions, system.parsed.transitions, strict=True)):
             if tr.source != mode.name:
                 continue
             h = fold(td["guard"])
@@ -388,22 +389,6 @@ class CompiledSystem:
         #: (e.g. the exact integrator's flows), by key; cleared when :meth:`set_runtime` changes them.
         self.derived: dict[str, object] = {}
 
-    @classmethod
-    def borrow(cls, system: HybridSystem, params: Mapping[str, float], owner: object) -> CompiledSystem:
-        """A compiled system with every parameter read at call time, set to ``params``, lent to ``owner``.
-
-        Taken from a pool kept with ``system`` (compiled only if the pool is
-        empty) and returned to it when ``owner`` is garbage-collected, so
-        that repeated short-lived users (one periodic orbit after another at
-        new parameter values) do not recompile the system; two owners never
-        share one.
-        """
-        pool = system.__dict__.setdefault("_compiled_pool", [])
-        cs = pool.pop() if pool else cls(system, params, runtime=tuple(system.parameter_names))
-        cs.set_runtime(params)
-        weakref.finalize(owner, pool.append, cs)
-        return cs
-
     def set_runtime(self, params: Mapping[str, float]) -> None:
         """New parameter values that differ from the compiled ones only in ``runtime`` parameters."""
         new = self.system.parameter_values({**self.params, **params})
@@ -447,3 +432,86 @@ def lead_sign(series: np.ndarray, noise: float) -> float:
             if s < best:
                 best, sign = s, math.copysign(1.0, hk)
     return sign
+
+
+#: Free compiled systems of each kind kept per model for reuse (the most recent ones).
+POOL_SIZE = 4
+
+
+class CompiledPool:
+    """The compiled systems of one model, each lent to one owner at a time.
+
+    A compiled system's parameters read at run time change with :meth:`CompiledSystem.set_runtime`,
+    so two owners must never share one (a shooter at one parameter value once changed those of
+    another's). A loan returns to the pool when its owner releases it or is garbage-collected;
+    free systems are reused, so that one orbit after another, or a continuation's neighbours,
+    compile the model once:
+
+    * ``every_parameter``: every parameter read at run time (the exact integrator's flows come
+      from the parametric analysis, so nothing is folded): any free one, set to the values;
+    * otherwise a free one compiled for the same values; or one whose run-time parameters are
+      the only ones that differ (set to the values); or, where a free one differs in a single
+      parameter that no reset uses, a new one with that parameter read at run time (a sweep or
+      a continuation neighbour then compiles once); else a new one with every parameter folded.
+
+    At most :data:`POOL_SIZE` free systems of each kind are kept.
+    """
+
+    def __init__(self, system: HybridSystem):
+        self.system = system
+        self._free: list[CompiledSystem] = []  # folded, or one parameter at run time; oldest first
+        self._free_every: list[CompiledSystem] = []  # every parameter at run time
+        self._lock = threading.Lock()
+        # Parameters in a reset stay folded (the saltation code compiles reset derivatives on its own).
+        self._resets = set().union(
+            *(e.free for td in system.parsed.transitions for e in td["reset"].values())
+        )
+
+    def lend(self, params: Mapping[str, float], owner: object, *, every_parameter: bool = False):
+        """A compiled system at ``params`` for ``owner`` alone, and the function that returns it.
+
+        Returns
+        -------
+        cs : CompiledSystem
+        release : callable
+            Returns ``cs`` to the pool (at most once; also when ``owner`` is collected).
+        """
+        system = self.system
+        params = system.parameter_values(params)
+        with self._lock:
+            if every_parameter:
+                free = self._free_every
+                cs = free.pop() if free else None
+            else:
+                free = self._free
+                best = None
+                for k, c in enumerate(free):
+                    differ = [p for p, v in params.items() if v != c.params[p]]
+                    if not differ or (c.runtime and set(differ) <= set(c.runtime)):
+                        best = k
+                        break
+                    if not c.runtime and len(differ) == 1 and best is None and differ[0] not in self._resets:
+                        best = (differ[0],)
+                cs = free.pop(best) if isinstance(best, int) else None
+        if cs is None:
+            if every_parameter:
+                cs = CompiledSystem(system, params, runtime=tuple(system.parameter_names))
+            else:
+                cs = CompiledSystem(system, params, runtime=best if isinstance(best, tuple) else ())
+        if cs.runtime:
+            cs.set_runtime(params)
+        release = weakref.finalize(owner, self._give_back, cs, free)
+        return cs, release
+
+    def _give_back(self, cs: CompiledSystem, free: list) -> None:
+        with self._lock:
+            free.append(cs)  # most recent last
+            while len(free) > POOL_SIZE:
+                free.pop(0)
+
+
+def lend(system: HybridSystem, params: Mapping[str, float], owner: object, *, every_parameter: bool = False):
+    """A compiled system of ``system`` at ``params`` lent to ``owner`` alone, from the model's
+    :class:`CompiledPool` (kept in ``system.cache``); returns ``(cs, release)``."""
+    pool = system.cache.get("compiled_pool", lambda: CompiledPool(system))
+    return pool.lend(params, owner, every_parameter=every_parameter)

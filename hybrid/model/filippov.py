@@ -76,6 +76,8 @@ __all__ = ["filippov_system", "Surface", "surfaces"]
 
 #: Most surfaces in one mode (3^s - 1 derived modes grow fast; the engine's limit is 1000 modes).
 MAX_SURFACES = 4
+#: Key of the surfaces a Filippov system was derived from, in its :attr:`HybridSystem.cache`.
+SURFACES_KEY = "filippov_surfaces"
 
 _SIDE = {1: "+", -1: "-", 0: "0"}
 
@@ -185,7 +187,7 @@ def filippov_system(**kwargs) -> HybridSystem:
     raw = _Parsed(**kwargs)
     pre = f"model `{raw.name}`"
     params = set(raw.parameter_names)
-    mode_data = raw._cache["modes"]
+    mode_data = raw.parsed.modes
     found = {}
     for m in raw.modes:
         md = mode_data[m.name]
@@ -202,7 +204,7 @@ def filippov_system(**kwargs) -> HybridSystem:
     for i in range(n_lam):
         lams.append(_free_name(f"sign_{i + 1}", taken))
         taken.add(lams[-1])
-    trans_data = raw._cache["transitions"]
+    trans_data = raw.parsed.transitions
     builder = _Builder(raw, pre, lams, mode_data, trans_data)
     for m in raw.modes:
         if m.name in found:
@@ -222,13 +224,14 @@ def filippov_system(**kwargs) -> HybridSystem:
         initial_mode=builder.entry.get(raw.initial_mode, raw.initial_mode),
     )
     system = HybridSystem(**out)
-    system._set_cache("filippov", tuple(builder.surfaces))
+    found_surfaces = tuple(builder.surfaces)
+    system.cache.get(SURFACES_KEY, lambda: found_surfaces)
     return system
 
 
 def surfaces(system: HybridSystem) -> tuple[Surface, ...]:
     """The discontinuity surfaces :func:`filippov_system` derived for ``system`` (empty for others)."""
-    return system._cache.get("filippov", ())
+    return system.cache.get(SURFACES_KEY, tuple)
 
 
 class _Builder:

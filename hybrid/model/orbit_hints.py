@@ -59,7 +59,7 @@ def period_guess(system, params: Mapping[str, float]) -> float | None:
     ValueError
         It does not evaluate to a finite positive number.
     """
-    e: Expr | None = system._cache["autonomous"]["period_guess"]
+    e: Expr | None = system.parsed.autonomous["period_guess"]
     if e is None:
         return None
     try:

@@ -31,6 +31,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from ..core.cache import DerivedCache
 from ..core.errors import ModelError
 from .codegen import compile_scalar
 from .elements import (
@@ -92,6 +93,37 @@ def _shared_system(key: int) -> HybridSystem:
 
 
 @dataclass(frozen=True)
+class ParsedSystem:
+    """A :class:`HybridSystem`'s expressions, parsed, checked and expanded once at construction.
+
+    Attributes
+    ----------
+    defs : mapping of str to Expr
+        The system's definitions, expanded over each other.
+    modes : mapping of str to dict
+        Per mode name: ``derivatives`` and ``algebraic`` (variable -> Expr, definitions
+        expanded), ``defs`` (the mode's definitions merged over the system's), ``expand`` (a
+        callable substituting them into an expression).
+    transitions : list of dict
+        Per transition, in ``HybridSystem.transitions`` order: ``guard`` (Expr) and ``reset``
+        (variable -> Expr).
+    period : Expr or None
+        The forcing period's expression in the parameters.
+    gauge : Expr or None
+        The ``[orbit] gauge`` of a family of orbits.
+    autonomous : dict
+        The ``[orbit]`` hints of autonomous orbits (:mod:`hybrid.model.orbit_hints`).
+    """
+
+    defs: Mapping
+    modes: Mapping
+    transitions: list
+    period: object
+    gauge: object
+    autonomous: Mapping
+
+
+@dataclass(frozen=True)
 class HybridSystem:
     """A hybrid automaton given as data.
 
@@ -136,6 +168,13 @@ class HybridSystem:
         (no ``t``) that selects one member of a family of periodic orbits
         (a neutral multiplier 1, e.g. the free offset of a stuck friction
         element): the member with ``gauge = 0`` at the section is returned.
+
+    Notes
+    -----
+    Frozen: no field changes after construction, and what the engine derives from the system is
+    kept in its explicit :attr:`cache`. Two systems are equal when their fields are (two loads of
+    one file are equal); a system is hashable (its hash is that of its name and the names of its
+    variables, parameters and modes, so equal systems hash alike), so it can key a dict.
 
     Examples
     --------
@@ -190,12 +229,16 @@ class HybridSystem:
             "presets",
             MappingProxyType({k: MappingProxyType(dict(v)) for k, v in dict(self.presets).items()}),
         )
+        set_(self, "_building", {})
         try:
             self._validate()
         except ExpressionError as exc:
             msg = str(exc)
             prefix = f"model `{self.name}`: "
             raise ModelError(msg if msg.startswith(prefix) else prefix + msg) from None
+        set_(self, "_parsed", ParsedSystem(**self._building))
+        set_(self, "_building", None)
+        set_(self, "_derived", DerivedCache())
 
     def _validate_sizes_and_texts(self) -> None:
         """Names that reach files, counts, and texts: checked before any expression is parsed."""
@@ -499,8 +542,22 @@ class HybridSystem:
             self._set_cache("gauge", g)
 
     def _set_cache(self, key: str, value) -> None:
-        cache = self.__dict__.setdefault("_cache", {})
-        cache[key] = value
+        """Keep a part of :attr:`parsed` while the system is validated (construction only)."""
+        self._building[key] = value
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.variable_names, self.parameter_names, self.mode_names))
+
+    @property
+    def parsed(self) -> ParsedSystem:
+        """The model's expressions as parsed and expanded at construction (read-only)."""
+        return self._parsed
+
+    @property
+    def cache(self) -> DerivedCache:
+        """What the engine derives from this system and keeps with it (compiled forms, the exact
+        integrator's analysis, ...), each entry made once on first use by the module that owns its key."""
+        return self._derived
 
     @staticmethod
     def _parse_definitions(
@@ -604,7 +661,7 @@ class HybridSystem:
 
     def period_value(self, params: Mapping[str, float]) -> float | None:
         """Forcing period for ``params`` (None if the model declares none)."""
-        pe = self._cache["period"]
+        pe = self._parsed.period
         if pe is None:
             return None
         try:

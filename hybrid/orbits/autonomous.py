@@ -58,7 +58,7 @@ def resolve_phase(system: HybridSystem, phase: str) -> str:
     if not isinstance(phase, str):
         raise TypeError(f"`phase` must be a string, got {type(phase).__name__}")
     if phase == "auto":
-        return system._cache["autonomous"]["section"] or "anchor"
+        return system.parsed.autonomous["section"] or "anchor"
     names = [tr.name for tr in system.transitions]
     if phase != "anchor" and phase not in names:
         raise ValueError(

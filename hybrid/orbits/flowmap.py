@@ -28,9 +28,8 @@ from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
 from ..engine.variational import Sensitivity, guard_index, saltation
 from ..integrators.affine import exact_flows
-from ..model.compiled import CompiledSystem
+from ..model.compiled import CompiledSystem, lend
 from ..model.system import HybridSystem
-from .shooter import compiled
 
 __all__ = ["FlowMap", "Evaluation"]
 
@@ -104,10 +103,12 @@ class FlowMap:
         self.params = system.parameter_values(params)
         self.options = replace(options, max_step=options.max_step or float(time_scale) / 16.0)
         if options.integrator == "exact":
-            self.cs = CompiledSystem.borrow(system, self.params, self)
+            self.cs, self._release = lend(system, self.params, self, every_parameter=True)
             exact_flows(self.cs)  # refused before any run if not affine
+        elif free:
+            self.cs = CompiledSystem(system, self.params, runtime=(free,))  # its own: free read at run time
         else:
-            self.cs = compiled(system, self.params, (free,) if free else ())
+            self.cs, self._release = lend(system, self.params, self)
         if self.cs.depends_on_time():
             raise ValueError(
                 f"model `{system.name}` depends on t but declares no forcing period: an autonomous "

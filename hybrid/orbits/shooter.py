@@ -21,61 +21,11 @@ from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
 from ..engine.variational import Sensitivity
 from ..integrators.affine import exact_flows
 from ..model.codegen import compile_scalar
-from ..model.compiled import CompiledSystem
+from ..model.compiled import CompiledSystem, lend
 from ..model.expr import diff
 from ..model.system import HybridSystem
 
-__all__ = ["Shooter", "compiled"]
-
-
-#: Compiled systems kept per model (the most recent parameter sets).
-COMPILED_CACHE = 4
-
-
-def compiled(
-    system: HybridSystem,
-    params: Mapping[str, float],
-    runtime: tuple[str, ...] = (),
-    *,
-    reuse_runtime: bool = True,
-) -> CompiledSystem:
-    """A compiled system for ``params``, reused from the model's recent ones where possible.
-
-    With ``runtime`` parameters the result is private (its run-time values change). Otherwise:
-    the same parameter set as a recent one reuses it; a set that differs from a recent one in a
-    single parameter gets a system compiled with that parameter read at run time (a sweep or a
-    continuation neighbour compiles once), set to the requested value at every reuse (so a
-    system returned here is only valid until the next call; ``reuse_runtime=False``, e.g. for the
-    exact integrator, which needs every parameter folded, never returns such a one).
-    """
-    if runtime:
-        return CompiledSystem(system, params, runtime=runtime)
-    params = system.parameter_values(params)
-    cache: list = system._cache.setdefault("compiled", [])
-    # Parameters in a reset stay folded (the saltation code compiles reset derivatives on its own).
-    resets = set().union(*(e.free for td in system._cache["transitions"] for e in td["reset"].values()))
-    best = None
-    for k, cs in enumerate(cache):
-        differ = [p for p, v in params.items() if v != cs.params[p]]
-        if (not differ and (reuse_runtime or not cs.runtime)) or (
-            reuse_runtime and cs.runtime and set(differ) <= set(cs.runtime)
-        ):
-            best = k
-            break
-        if reuse_runtime and not cs.runtime and len(differ) == 1 and best is None and differ[0] not in resets:
-            best = (differ[0],)
-    if isinstance(best, int):
-        cs = cache.pop(best)
-        if cs.runtime:
-            cs.set_runtime(params)
-    elif best is not None:
-        cs = CompiledSystem(system, params, runtime=best)
-    else:
-        cs = CompiledSystem(system, params)
-    while len(cache) >= COMPILED_CACHE:
-        cache.pop(0)
-    cache.append(cs)  # most recent last
-    return cs
+__all__ = ["Shooter"]
 
 
 class Shooter:
@@ -112,7 +62,7 @@ class Shooter:
         nb = len(self.names)
         self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
         self._gauge = _gauge_functions(system)
-        pe = system._cache["period"]
+        pe = system.parsed.period
         self._dT = diff(pe, free) if free else None
         self.nfev = 0
 
@@ -130,13 +80,8 @@ class Shooter:
             and all(v == cs.params[k] for k, v in self.params.items() if k not in cs.runtime)
         ):
             cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
-        elif self.options.integrator == "exact":
-            # every parameter read at call time: the exact flows come from the affine analysis
-            self.cs = CompiledSystem.borrow(self.system, self.params, self)
         else:
-            # The free parameter is read at run time (set_runtime).
-            runtime = (self.free,) if self.free is not None else ()
-            self.cs = compiled(self.system, self.params, runtime)
+            self.cs = self._compiled()
         self.period = self.cs.period
         if self.period is None:
             raise ValueError(
@@ -146,6 +91,21 @@ class Shooter:
             self.ext_values = np.array([self.params[self.free]])
         else:
             self.ext_values = np.zeros(0)
+
+    def _compiled(self) -> CompiledSystem:
+        """A compiled system at ``self.params`` of this shooter's own (the one it had is released)."""
+        release = getattr(self, "_release", None)
+        if release is not None:
+            release()
+        if self.options.integrator == "exact":
+            # every parameter read at call time: the exact flows come from the affine analysis
+            cs, self._release = lend(self.system, self.params, self, every_parameter=True)
+        elif self.free is not None:
+            # the free parameter is read at run time (set_runtime); private to this shooter
+            cs, self._release = CompiledSystem(self.system, self.params, runtime=(self.free,)), None
+        else:
+            cs, self._release = lend(self.system, self.params, self)
+        return cs
 
     @property
     def noise_rtol(self) -> float:
@@ -213,16 +173,17 @@ class Shooter:
 def _gauge_functions(system: HybridSystem) -> tuple[Callable, list[Callable]] | None:
     """The model's ``[orbit] gauge`` and its gradient, compiled once per system with the parameters
     read at call time (``v = [t, state..., parameters...]``); None without a gauge."""
-    gauge = system._cache.get("gauge")
+    gauge = system.parsed.gauge
     if gauge is None:
         return None
-    hit = system._cache.get("gauge_functions")
-    if hit is None:
+
+    def make() -> tuple[Callable, list[Callable]]:
         names = system.variable_names
         slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
         slots.update({p.name: len(names) + 1 + j for j, p in enumerate(system.parameters)})
-        hit = system._cache["gauge_functions"] = (
+        return (
             compile_scalar(gauge, slots, {}),
             [compile_scalar(diff(gauge, nm), slots, {}) for nm in names],
         )
-    return hit
+
+    return system.cache.get("gauge_functions", make)

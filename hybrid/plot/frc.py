@@ -2,11 +2,11 @@
 
 One row per displacement coordinate (the model's ``plot.displacements``):
 the whole range with a logarithmic amplitude axis, then one panel per
-resonance zoomed on its stick-slip band (where the orbits switch), with a
+resonance zoomed on where the orbits switch (between its special points), with a
 linear axis. Stable orbits are drawn solid, unstable dashed, neutral ones
 (e.g. the undamped stuck response, a family of orbits) thin in another
 colour; special points are marked and labelled; overlay curves (model
-knowledge, e.g. the linear stick response and a structural-change limit) are
+knowledge from the ``hybrid.frc_overlays`` entry points) are
 drawn under the branches.
 """
 

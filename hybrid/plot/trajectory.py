@@ -2,7 +2,7 @@
 
 :func:`plot_trajectory` follows the manner of the paper's Figs. 5/6: the force
 of the non-smooth element against time and against its relative velocity,
-with the phases of the shaded modes (stick) marked, above the displacement
+with the phases of the modes named in the hints' ``shade_modes`` shaded, above the displacement
 history. :func:`plot_orbit` draws the same for one period of a periodic
 orbit, with its Floquet multipliers. Which outputs to draw comes from the
 model's ``plot`` hints, completed by :func:`hybrid.model.plot_hints.plot_hints`
@@ -50,7 +50,7 @@ def _shade_modes(ax, traj: Trajectory, shade: set, t_lo: float = -float("inf")) 
 def plot_trajectory(
     traj: Trajectory, path: str | Path, *, last_periods: float = 4.0, history: Envelope | None = None
 ) -> Path:
-    """Write the stick-slip figure of a trajectory as PNG (see :func:`trajectory_figure`).
+    """Write the figure of a trajectory as PNG (see :func:`trajectory_figure`).
 
     Parameters
     ----------
@@ -75,7 +75,7 @@ def plot_trajectory(
 def trajectory_figure(
     traj: Trajectory, *, last_periods: float = 4.0, history: Envelope | None = None
 ) -> Figure:
-    """The stick-slip figure of a trajectory.
+    """The figure of a trajectory: the switching force against time and velocity, the displacements.
 
     Parameters
     ----------
@@ -127,7 +127,7 @@ def trajectory_figure(
             ax_v.plot(traj[vel][win], H[win], color="C0", lw=1.2)
             ax_v.set_xlabel(_label(traj, vel))
             ax_v.set_ylabel(_label(traj, force))
-            ax_v.set_title(f"{force} against {vel} (same window; stick: {vel} = 0)")
+            ax_v.set_title(f"{force} against {vel} (same window)")
             ax_v.axvline(0.0, color="0.6", lw=0.6)
             ax_v.grid(alpha=0.3)
         if _shade_modes(ax_t, traj, shade, t_lo):
@@ -218,7 +218,7 @@ def orbit_figure(orbit) -> Figure:
             ax_v.axvline(0.0, color="0.6", lw=0.6)
             ax_v.set_xlabel(_label(traj, vel))
             ax_v.set_ylabel(_label(traj, force))
-            ax_v.set_title(f"{force} against {vel} (stick: {vel} = 0)")
+            ax_v.set_title(f"{force} against {vel}")
             ax_v.grid(alpha=0.3)
     for k, name in reversed(list(enumerate(disp))):
         amp = orbit.amplitude.get(name)
@@ -227,7 +227,9 @@ def orbit_figure(orbit) -> Figure:
     shaded = _shade_modes(ax_d, traj, shade)
     ax_d.set_xlabel("t [s]")
     ax_d.set_ylabel("displacement")
-    ax_d.set_title("displacements over one period" + (" (stick shaded)" if shaded else ""))
+    ax_d.set_title(
+        "displacements over one period" + (f" (shaded: {', '.join(sorted(shade))})" if shaded else "")
+    )
     ax_d.set_xlim(t[0], t[-1])
     ax_d.grid(alpha=0.3)
     ax_d.legend(loc="best", fontsize=8, framealpha=0.9)

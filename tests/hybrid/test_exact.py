@@ -15,7 +15,7 @@ from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
 from hybrid.integrators.affine import affine_mode, affine_system
 from hybrid.integrators.exact import ExactModeSolver, NotAffineError
 from hybrid.integrators.ida import ROOT, TSTOP
-from hybrid.model.compiled import CompiledSystem
+from hybrid.model.compiled import CompiledSystem, lend
 from hybrid.model.linear import reduced_jacobian
 
 
@@ -329,8 +329,9 @@ def test_parameters_read_at_call_time_equal_folded_ones(name):
             assert np.allclose(a.dFdy(t, y), b.dFdy(t, y), rtol=1e-13, atol=1e-13)
             assert np.allclose(a.rhs(t, y), b.rhs(t, y), rtol=1e-13, atol=1e-13)
             assert np.allclose(a.taylor(t, y, 3), b.taylor(t, y, 3), rtol=1e-12, atol=1e-12)
-    borrowed = CompiledSystem.borrow(system, base, owner := type("Owner", (), {})())
+    borrowed, release = lend(system, base, owner := type("Owner", (), {})(), every_parameter=True)
     assert borrowed.params == system.parameter_values(base)
+    release()
     del owner
 
 

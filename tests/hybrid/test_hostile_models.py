@@ -62,7 +62,7 @@ def test_squaring_definitions_expand_as_a_dag_in_linear_time(tmp_path):
     tr = simulate(system, {"k": 1.0}, (0.0, 1.0), {"x": 1.0, "v": 0.0}, t_eval=[0.0])
     assert time.perf_counter() - t0 < 5.0
     assert tr["a40"][0] == 1.0
-    data = system._cache["modes"]["free"]["defs"]["a40"]
+    data = system.parsed.modes["free"]["defs"]["a40"]
     assert count_nodes([data]) == 41  # 40 products and the symbol x
     tr2 = simulate(system, {"k": 1.0}, (0.0, 1.0), {"x": 1.0 - 2.0**-45, "v": 0.0}, t_eval=[0.0])
     assert tr2["a40"][0] == pytest.approx((1.0 - 2.0**-45) ** (2.0**40), rel=1e-9)
