@@ -15,8 +15,7 @@ from pathlib import Path
 
 from ..core.errors import HybridError
 from ..core.options import INTEGRATORS, SolverOptions
-from ..integrators.affine import exact_flows
-from ..model.compiled import CompiledSystem
+from ..integrators.registry import integrator
 from ..model.plot_hints import plot_hints
 from ..model.registry import is_model_file
 from ..model.system import HybridSystem
@@ -157,8 +156,7 @@ def add_work_limits(p: argparse.ArgumentParser) -> None:
 
 def check_integrator(system: HybridSystem, params: dict[str, float], options: SolverOptions) -> None:
     """Refuse, before any run, a model the chosen integrator cannot take (NotAffineError, exit 2)."""
-    if options.integrator == "exact":
-        exact_flows(CompiledSystem(system, params))
+    integrator(options.integrator).check_model(system, params)
 
 
 def budget_options(args) -> dict:

@@ -27,7 +27,7 @@ from functools import partial
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded
 from ..core.options import ContinuationOptions, SolverOptions, check_samples
 from ..engine.simulate import check_time_range, initial_state
 from ..model.system import HybridSystem

@@ -18,7 +18,7 @@ from contextvars import ContextVar
 
 from .errors import BudgetExceeded
 
-__all__ = ["time_limit", "Budget", "BudgetExceeded", "deadline_passed"]
+__all__ = ["time_limit", "Budget", "deadline_passed"]
 
 _DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("hybrid_deadline", default=None)
 

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 __all__ = [
     "HybridError",
+    "InputError",
+    "InputTypeError",
     "ModelError",
     "ExpressionError",
     "NotAffineError",
@@ -32,6 +34,15 @@ class HybridError(Exception):
     """Base of every exception raised by :mod:`hybrid` on purpose."""
 
 
+class InputError(HybridError, ValueError):
+    """An argument or option is invalid: out of its domain, or inconsistent with the model or with
+    another argument (bad input other than the model's definition, which is a :class:`ModelError`)."""
+
+
+class InputTypeError(HybridError, TypeError):
+    """An argument has the wrong type (e.g. ``options`` that is not a :class:`hybrid.SolverOptions`)."""
+
+
 class ModelError(HybridError, ValueError):
     """A hybrid-system definition is inconsistent (unknown name, missing equation, ...)."""
 
@@ -46,7 +57,8 @@ class NotAffineError(ExpressionError):
 
 
 class SimulationError(HybridError, RuntimeError):
-    """A simulation stopped before the end of its time span (raised when ``throw=True``)."""
+    """A simulation stopped before the end of its time span (raised when ``throw=True``), or a run
+    of a map did not give what the map needs (it failed, or never returned to its section)."""
 
 
 class AlgebraicSolveError(HybridError, RuntimeError):

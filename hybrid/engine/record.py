@@ -18,7 +18,7 @@ import numpy as np
 from ..core.errors import SampleCapReached
 from .trajectory import TransitionRecord
 
-__all__ = ["Sink", "Tee", "Envelope", "SampleCapReached", "Recorder", "MAX_SAMPLES", "MAX_STREAMED_SAMPLES"]
+__all__ = ["Sink", "Tee", "Envelope", "Recorder", "MAX_SAMPLES", "MAX_STREAMED_SAMPLES"]
 
 #: Samples a trajectory may hold in memory.
 MAX_SAMPLES = 2_000_000

@@ -13,17 +13,17 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..core.errors import SimulationError
+from ..core.errors import AlgebraicSolveError
 from ..core.options import SolverOptions
-from ..integrators.affine import exact_flows
-from ..model.compiled import AlgebraicSolveError, CompiledSystem
+from ..integrators.registry import integrator
+from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 from .eventloop import Run, step_bound
 from .record import MAX_SAMPLES, Recorder, Sink
 from .sampling import check_sample_count, sample_times
 from .trajectory import Trajectory
 
-__all__ = ["simulate", "initial_state", "SimulationError"]
+__all__ = ["simulate", "initial_state"]
 
 #: The step bound must span at least this many float spacings of t over the run (else the steps
 #: cannot be resolved: at t = 1e15 a step of a few seconds is a few spacings of 0.125 s).
@@ -179,8 +179,7 @@ def simulate(
         )
     system.mode(mode0)
     cs = CompiledSystem(system, params)
-    if options.integrator == "exact":
-        exact_flows(cs)  # a model the exact integrator cannot take is refused before the run
+    integrator(options.integrator).check(cs)  # a model the integrator cannot take is refused before the run
     y0 = initial_state(system, x0, mode0)
     samples = sample_times(t_eval, samples_per_period, cs.period, t0, t1)
     check_time_range(cs, options, t0, t1)

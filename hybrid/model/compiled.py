@@ -26,7 +26,7 @@ from .expr import Expr, diff, free_symbols, neg, num, sub, substitute, sym
 from .system import HybridSystem
 from .taylor import taylor_eval, taylor_eval_many
 
-__all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "AlgebraicSolveError"]
+__all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard"]
 
 #: Prefix of the generated residual's slots for ``y'`` (not a valid model name: no clash).
 _YP = " yp"

@@ -57,7 +57,7 @@ from .expr import (
 )
 from .orbit_hints import validate_hints
 
-__all__ = ["HybridSystem", "ModelError"]
+__all__ = ["HybridSystem"]
 
 
 #: Size limits of a model (a model file is untrusted input: every limit has a clear error).

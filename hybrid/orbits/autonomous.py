@@ -29,7 +29,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import initial_state
 from ..model.orbit_hints import period_guess

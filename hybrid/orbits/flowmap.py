@@ -22,12 +22,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError, SimulationError
 from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
 from ..engine.variational import Sensitivity, guard_index, saltation
-from ..integrators.affine import exact_flows
+from ..integrators.registry import integrator
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 from .shooter import compiled
@@ -103,11 +103,12 @@ class FlowMap:
         self.free = free
         self.params = system.parameter_values(params)
         self.options = replace(options, max_step=options.max_step or float(time_scale) / 16.0)
-        if options.integrator == "exact":
+        self.integrator = integrator(options.integrator)
+        if self.integrator.folded_parameters:
             self.cs = CompiledSystem.borrow(system, self.params, self)
-            exact_flows(self.cs)  # refused before any run if not affine
         else:
             self.cs = compiled(system, self.params, (free,) if free else ())
+        self.integrator.check(self.cs)  # refused before any run (e.g. not affine)
         if self.cs.depends_on_time():
             raise ValueError(
                 f"model `{system.name}` depends on t but declares no forcing period: an autonomous "
@@ -143,7 +144,7 @@ class FlowMap:
 
         Raises
         ------
-        hybrid.core.budget.BudgetExceeded
+        hybrid.core.errors.BudgetExceeded
             The run exhausted its step or time budget.
         """
         y = np.array(y0, dtype=float)
@@ -164,7 +165,7 @@ class FlowMap:
         """The time-``T`` map from ``(y0, mode0)``; with ``derivatives`` its fundamental matrix."""
         tr = self.run(y0, mode0, T)
         if not tr.success:
-            raise RuntimeError(f"run failed: {tr.message}")
+            raise SimulationError(f"run failed: {tr.message}")
         Y = self._fundamental(tr.y[0], mode0, T, tr.events) if derivatives else None
         f = self.field(tr.mode_final, tr.y_final)
         return Evaluation(tr, tr.y_final.copy(), tr.mode_final, float(T), Y, Y, f, list(tr.events))
@@ -178,16 +179,18 @@ class FlowMap:
 
         Raises
         ------
-        RuntimeError
+        hybrid.core.errors.SimulationError
             The run failed or did not reach the section by ``t_max``.
+        hybrid.core.errors.GrazingSwitchError
+            (With ``derivatives``) the section's guard has a zero rate along the flow where it fires.
         """
         tr = self.run(y0, mode0, t_max)
         if not tr.success:
-            raise RuntimeError(f"run failed: {tr.message}")
+            raise SimulationError(f"run failed: {tr.message}")
         events = list(tr.events)
         hit = next((i for i, e in enumerate(events) if e.guard == section and e.t > 0.0), None)
         if hit is None:
-            raise RuntimeError(
+            raise SimulationError(
                 f"the run did not return to the section `{section}` within {t_max:.6g} s "
                 f"(modes visited: {', '.join(dict.fromkeys([mode0, *(e.target for e in events)]))})"
             )
@@ -218,7 +221,7 @@ class FlowMap:
         h_y, h_t = src.guard_gradient(guard_index(src, ev.guard), ev.t, y_minus)
         denom = h_t + h_y @ src.derivatives(ev.t, y_minus)
         if denom == 0.0:
-            raise ZeroDivisionError(
+            raise GrazingSwitchError(
                 f"grazing return: the guard of `{ev.guard}` has a zero rate along the flow where it fires"
             )
         return -(h_y[self.sens.s] @ Phi) / denom

@@ -17,7 +17,6 @@ from ..core.balance import balance
 from ..core.options import SolverOptions
 from ..core.scalar import bounded_minimum
 from ..engine.trajectory import Trajectory, sampled_trajectory
-from ..integrators.affine import exact_flows
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 
@@ -571,7 +570,7 @@ def finish_orbit(
     mult, kinds, verdict = _classify(mult, n_struct, family, mtol)
     # Amplitudes (variables and outputs): extrema located on the flow, not read from samples.
     amp, hpp = {}, {}
-    ext = _Extrema(shooter.cs, tr, exact_flows(shooter.cs) if shooter.options.integrator == "exact" else None)
+    ext = _Extrema(shooter.cs, tr, shooter.integrator.exact_flows(shooter.cs))
     series = {n: tr.y[:, i] for i, n in enumerate(names) if n not in sys_.quadratures}
     series.update({o: tr.outputs[o] for o in sys_.outputs})
     for n, x in series.items():
@@ -614,7 +613,7 @@ def finish_orbit(
     elif err > 1e-6:
         msg += f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about " + (
             f"cond x rtol = {err:.2g} (relative); tighten rtol for more; "
-            if shooter.options.integrator != "exact"
+            if not shooter.integrator.exact
             else f"cond x rounding = {err:.2g} (relative); "
         )
     conv = res_norm <= tol and not note

@@ -13,13 +13,12 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
-from ..core.errors import ParameterOutOfDomain
+from ..core.errors import BudgetExceeded, ParameterOutOfDomain
 from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
 from ..engine.variational import Sensitivity
-from ..integrators.affine import exact_flows
+from ..integrators.registry import integrator
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledSystem
 from ..model.expr import diff
@@ -89,6 +88,11 @@ class Shooter:
     options : SolverOptions
     free : str, optional
         A parameter to differentiate the map by (for continuation).
+
+    Attributes
+    ----------
+    integrator : hybrid.integrators.base.Integrator
+        The integrator of ``options.integrator``.
     """
 
     def __init__(
@@ -100,11 +104,11 @@ class Shooter:
     ):
         self.system = system
         self.options = options
+        self.integrator = integrator(options.integrator)
         self.free = free
         self.names = system.variable_names
         self.set_params(params)
-        if options.integrator == "exact":
-            exact_flows(self.cs)  # refused before any run if not affine (NotAffineError)
+        self.integrator.check(self.cs)  # refused before any run (e.g. not affine: NotAffineError)
         # Without a free parameter the variational runs use the same compiled system.
         self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
         T = self.period
@@ -130,7 +134,7 @@ class Shooter:
             and all(v == cs.params[k] for k, v in self.params.items() if k not in cs.runtime)
         ):
             cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
-        elif self.options.integrator == "exact":
+        elif self.integrator.folded_parameters:
             # every parameter read at call time: the exact flows come from the affine analysis
             self.cs = CompiledSystem.borrow(self.system, self.params, self)
         else:
@@ -150,7 +154,7 @@ class Shooter:
     @property
     def noise_rtol(self) -> float:
         """Relative accuracy of one run of the map: ``rtol`` (IDA), rounding (the exact integrator)."""
-        return self.options.rtol if self.options.integrator != "exact" else 1e-15
+        return self.integrator.noise_rtol(self.options)
 
     def dT(self) -> float:
         """d(period)/d(free parameter)."""
@@ -164,7 +168,7 @@ class Shooter:
         sampled run (about twice as costly) is made only if its samples are used, e.g. for an
         accepted orbit, not at every iteration of a corrector.
 
-        A run that exhausts its budget raises :class:`hybrid.core.budget.BudgetExceeded`.
+        A run that exhausts its budget raises :class:`hybrid.core.errors.BudgetExceeded`.
         """
         tr = self._run(y0, mode0, t0, None)
         if samples and tr.success:

@@ -32,7 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
