@@ -27,7 +27,7 @@ from functools import partial
 
 import numpy as np
 
-from ..core.errors import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError
 from ..core.options import ContinuationOptions, SolverOptions, check_samples
 from ..engine.simulate import check_time_range, initial_state
 from ..model.system import HybridSystem
@@ -268,10 +268,10 @@ class _Continuer:
             for src in (coarse, self.sh) if use else (self.sh,):
                 try:
                     Jy, Jp, M = self.jacobian(tr, y, p, pt.mode, pt.phi, nw, sh=src)
-                except (*_FAILURES, ZeroDivisionError):
+                except (*_FAILURES, GrazingSwitchError):
                     if src is self.sh:
                         raise
-                    continue  # (a grazing switch): the requested map's
+                    continue  # (e.g. a grazing switch): the requested map's
                 A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
                 w = _row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
                 A, rhs = A * w[:, None], rhs * w

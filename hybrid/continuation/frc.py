@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.budget import current_deadline, deadline_passed
 from ..core.budget import restore_deadline as _deadline
+from ..core.errors import WorkerError
 from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem, shared
 from .branch import Branch, forcing_parameter
@@ -248,6 +249,12 @@ def frequency_response(
     -------
     FrequencyResponse
 
+    Raises
+    ------
+    hybrid.core.errors.WorkerError
+        A worker process failed (its exception's type and message in this one's) or ended
+        without a result.
+
     Examples
     --------
     >>> import hybrid
@@ -408,7 +415,7 @@ def _parallel(
             pieces[i] = msg[2]
             running.pop(i).join()
         else:
-            raise RuntimeError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
+            raise WorkerError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
         while nxt < len(cuts):  # orbits of the pieces whose predecessors are done, in branch order
             if on_point is not None:
                 for j, o in held[nxt]:
@@ -436,7 +443,7 @@ def _parallel(
                 dead = [i for i, p in running.items() if p.exitcode is not None]
                 if dead and not queue._reader.poll(0.1):
                     i = dead[0]
-                    raise RuntimeError(
+                    raise WorkerError(
                         f"frequency response: the worker of piece {i} ended without a result "
                         f"(exit code {running[i].exitcode})"
                     )

@@ -29,7 +29,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.errors import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import initial_state
 from ..model.orbit_hints import period_guess
@@ -178,8 +178,8 @@ class AutonomousSolver:
                     ev_new = self.evaluate(y_new, mode, T_new)
                     if float(np.linalg.norm(self.residual(ev_new, y_new, d, anchor))) < (1 - 1e-4 * lam) * r0:
                         break
-                except (RuntimeError, ZeroDivisionError):
-                    pass
+                except (RuntimeError, GrazingSwitchError, ZeroDivisionError):
+                    pass  # a failed run, a grazing switch, the model's equations dividing by zero
                 lam *= 0.5
             else:
                 return (
@@ -294,8 +294,12 @@ def autonomous_orbit(
         return finish(solver, y, mode, T, ev, it, res, samples_per_period)
     except BudgetExceeded as exc:
         return failed(fm, y, mode0, Tg, 0, str(exc))
-    except ZeroDivisionError as exc:
+    except GrazingSwitchError as exc:
         return failed(fm, y, mode0, Tg, 0, f"{exc}; at a grazing, try a nearby parameter value")
+    except ZeroDivisionError as exc:  # the model's equations (e.g. a reset's derivative): not a grazing
+        return failed(
+            fm, y, mode0, Tg, 0, f"evaluating the model's equations failed: ZeroDivisionError: {exc}"
+        )
     except RuntimeError as exc:
         return failed(fm, y, mode0, Tg, 0, str(exc))
 

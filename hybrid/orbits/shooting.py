@@ -32,7 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.errors import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
@@ -118,15 +118,17 @@ def solve_orbit(
 ) -> PeriodicOrbit:
     """Newton shooting from a guess (see :func:`periodic_orbit`).
 
-    A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`)
-    or a grazing switch comes back as ``converged=False`` with the reason.
+    A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`),
+    a grazing switch, a division by zero in the model's equations where only the monodromy
+    evaluates them, or IDA failing in the variational equations comes back as ``converged=False``
+    with the reason.
     """
     at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
     try:
         return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
     except BudgetExceeded as exc:
         return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc))
-    except ZeroDivisionError as exc:  # a grazing switch: no saltation matrix, no monodromy
+    except GrazingSwitchError as exc:  # no saltation matrix, no monodromy
         return failed_orbit(
             shooter,
             at[0],
@@ -137,7 +139,10 @@ def solve_orbit(
             f"{exc}; write the guard to cross zero at a nonzero rate "
             "(e.g. `v` rather than `sign(v)`), or, at a true grazing, try a nearby parameter value",
         )
-    except RuntimeError as exc:  # IDA failed in the variational equations
+    except ZeroDivisionError as exc:  # the model's equations (e.g. a reset's derivative): not a grazing
+        why = f"evaluating the model's equations failed: ZeroDivisionError: {exc}"
+        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, why)
+    except RuntimeError as exc:  # IDA failed in the variational equations (IntegratorError)
         return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}")
 
 
