@@ -27,6 +27,7 @@ from .continuation.periodic import periodic_orbit as periodic_orbit
 from .core.budget import time_limit as time_limit
 from .core.errors import AlgebraicSolveError as AlgebraicSolveError
 from .core.errors import BudgetExceeded as BudgetExceeded
+from .core.errors import ConvergenceError as ConvergenceError
 from .core.errors import ExpressionError as ExpressionError
 from .core.errors import GrazingSwitchError as GrazingSwitchError
 from .core.errors import HybridError as HybridError

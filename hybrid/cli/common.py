@@ -13,7 +13,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..core.errors import HybridError
+from ..core.errors import InputError
 from ..core.options import INTEGRATORS, SolverOptions
 from ..integrators.registry import integrator
 from ..model.plot_hints import plot_hints
@@ -29,7 +29,7 @@ MAX_SAMPLES_PER_PERIOD = 100_000
 OUT_HELP = "output folder (default out/NAME: the built-in model's name, or the stem of the model file)"
 
 
-class UsageError(HybridError, ValueError):
+class UsageError(InputError):
     """Bad command-line input."""
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.budget import Budget
-from ..core.errors import GrazingSwitchError
+from ..core.errors import GrazingSwitchError, ModelError
 from ..core.options import SolverOptions
 from ..integrators.base import VariationalSolver
 from ..integrators.registry import integrator
@@ -100,7 +100,7 @@ def guard_index(mode: CompiledMode, name: str) -> int:
     for g in mode.guards:
         if g.name == name:
             return g.index
-    raise KeyError(f"mode `{mode.name}` has no transition `{name}`")
+    raise ModelError(f"mode `{mode.name}` has no transition `{name}`")
 
 
 def saltation(

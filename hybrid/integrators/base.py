@@ -27,6 +27,7 @@ apply). Callers ask it instead of testing the name.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import ClassVar, Protocol
@@ -123,7 +124,7 @@ class VariationalSolvers(Protocol):
     def solver(self, m: int, extend: np.ndarray) -> VariationalSolver: ...
 
 
-class Integrator:
+class Integrator(ABC):
     """An integrator of a mode's flow: what differs between IDA and the exact flow, in one place.
 
     One instance per integrator (:func:`hybrid.integrators.registry.integrator`); it holds no
@@ -170,15 +171,18 @@ class Integrator:
 
     def check(self, cs: CompiledSystem) -> None:
         """Refuse, before any run, a compiled system this integrator cannot take (default: none)."""
+        return None  # takes every model
 
     def check_model(self, system: HybridSystem, params: Mapping[str, float]) -> None:
         """Refuse, before any run, a model at ``params`` this integrator cannot take (compiling it
         only where the check needs to; default: none)."""
+        return None  # takes every model
 
+    @abstractmethod
     def noise_rtol(self, options: SolverOptions) -> float:
         """Relative accuracy of one run of a map (e.g. one forcing period) with ``options``."""
-        raise NotImplementedError
 
+    @abstractmethod
     def mode_solver(
         self,
         cs: CompiledSystem,
@@ -205,8 +209,8 @@ class Integrator:
         first_step : float
             First step of every (re)start [s]; 0: the solver's own choice.
         """
-        raise NotImplementedError
 
+    @abstractmethod
     def guard_series(
         self, cs: CompiledSystem, mode: int, t: float, y: np.ndarray, order: int
     ) -> Callable[[int], np.ndarray]:
@@ -215,15 +219,14 @@ class Integrator:
         Returns a function of a guard's index (in the mode) giving its coefficients (``[h, h',
         h''/2, ...]``); what the guards share (the flow's series) is computed once, on first use.
         """
-        raise NotImplementedError
 
+    @abstractmethod
     def variational(
         self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float
     ) -> VariationalSolvers:
         """The variational solvers of ``cs``'s modes over the state indices ``s`` (free parameters
         of ``cs`` appended to its state), with ``options``' tolerances and the step bound
         ``max_step`` [s]."""
-        raise NotImplementedError
 
     def exact_flows(self, cs: CompiledSystem) -> list | None:
         """The modes' exact flows (:class:`hybrid.integrators.affine.AffineMode`) where this

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
-from ..core.errors import NotAffineError
+from ..core.errors import InputError, NotAffineError
 from ..core.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
@@ -463,7 +463,7 @@ class ExactVariational:
             pm = None
             if cs.free:
                 if len(cs.free) > 1:
-                    raise ValueError("the exact integrator differentiates by one free parameter at most")
+                    raise InputError("the exact integrator differentiates by one free parameter at most")
                 p = cs.free[0]
                 delta = 1e-6 * max(abs(params[p]), 1e-3)
                 plus = self._flows({**params, p: params[p] + delta})

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.errors import AlgebraicSolveError
+from ..core.errors import AlgebraicSolveError, InputError
 from .codegen import compile_many, runtime_namespace, set_runtime
 from .expr import Expr, diff, free_symbols, neg, num, sub, substitute, sym
 from .system import HybridSystem
@@ -409,7 +409,7 @@ class CompiledSystem:
         new = self.system.parameter_values({**self.params, **params})
         changed = [k for k in new if new[k] != self.params[k] and k not in self.runtime]
         if changed:
-            raise ValueError(f"parameter `{changed[0]}` is compiled in as a constant: compile again")
+            raise InputError(f"parameter `{changed[0]}` is compiled in as a constant: compile again")
         self.params = new
         set_runtime(self._ns, {p: new[p] for p in self.runtime})
         for m in self.modes:
@@ -427,7 +427,7 @@ class CompiledSystem:
 
     def mode_id(self, name: str) -> int:
         if name not in self.mode_index:
-            raise ValueError(
+            raise InputError(
                 f"model `{self.system.name}` has no mode `{name}`; modes: {', '.join(self.mode_index)}"
             )
         return self.mode_index[name]

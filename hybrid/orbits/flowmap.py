@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.errors import BudgetExceeded, GrazingSwitchError, SimulationError
+from ..core.errors import BudgetExceeded, GrazingSwitchError, ModelError, SimulationError
 from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
@@ -110,7 +110,7 @@ class FlowMap:
             self.cs = compiled(system, self.params, (free,) if free else ())
         self.integrator.check(self.cs)  # refused before any run (e.g. not affine)
         if self.cs.depends_on_time():
-            raise ValueError(
+            raise ModelError(
                 f"model `{system.name}` depends on t but declares no forcing period: an autonomous "
                 "periodic orbit needs a model whose equations and guards do not contain t"
             )

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.balance import balance
+from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.options import SolverOptions
 from ..core.scalar import bounded_minimum
 from ..engine.trajectory import Trajectory, sampled_trajectory
@@ -484,24 +485,24 @@ def check_orbit_inputs(
     """Refuse bad arguments of :func:`hybrid.periodic_orbit` (``forced``) or
     :func:`hybrid.autonomous_orbit` before any integration (``TypeError``/``ValueError``)."""
     if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+        raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
     if forced and system.period is None:
-        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+        raise ModelError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
     if not forced and system.period is not None:
-        raise ValueError(
+        raise ModelError(
             f"model `{system.name}` is periodically forced (period {system.period!r}): use hybrid.periodic_orbit"
         )
     if not isinstance(options, SolverOptions):
-        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
+        raise InputTypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
     if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
-        raise ValueError(f"`tol` must be a number > 0, got {tol!r}")
+        raise InputError(f"`tol` must be a number > 0, got {tol!r}")
     # a transient is where an autonomous orbit's section and period come from: at least one
     for name, v, lo in (
         ("max_iter", max_iter, 1),
         ("transient_periods", transient_periods, 0 if forced else 1),
     ):
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
+            raise InputError(f"`{name}` must be an integer >= {lo}, got {v!r}")
 
 
 def failed_orbit(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:

@@ -13,7 +13,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from ..core.errors import BudgetExceeded, ParameterOutOfDomain
+from ..core.errors import BudgetExceeded, ModelError, ParameterOutOfDomain
 from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
@@ -143,7 +143,7 @@ class Shooter:
             self.cs = compiled(self.system, self.params, runtime)
         self.period = self.cs.period
         if self.period is None:
-            raise ValueError(
+            raise ModelError(
                 f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
             )
         if self.free is not None:

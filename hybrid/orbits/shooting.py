@@ -32,7 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.errors import BudgetExceeded, GrazingSwitchError
+from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
@@ -92,7 +92,7 @@ def shoot_orbit(
     check_samples(samples_per_period)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
-        raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
+        raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     shooter = Shooter(system, params, options)
     if x0 is None:
@@ -100,7 +100,7 @@ def shoot_orbit(
     y = initial_state(system, x0, mode0)
     start = 0.0 if t0 is None else float(t0)
     if not math.isfinite(start):
-        raise ValueError(f"`t0` must be finite, got {t0!r}")
+        raise InputError(f"`t0` must be finite, got {t0!r}")
     check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
     check_initial_state(shooter.cs, mode0, start, y)
     return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
