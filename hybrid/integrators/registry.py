@@ -4,9 +4,12 @@
 which equals :data:`NAMES`: :mod:`hybrid.core` does not import this layer); everything that
 depends on it asks the :class:`~hybrid.integrators.base.Integrator` found here.
 
+>>> from hybrid import SolverOptions
 >>> from hybrid.integrators.registry import integrator
->>> integrator("exact").noise_rtol(None), integrator("ida").needs_derivatives
-(1e-15, True)
+>>> opts = SolverOptions(rtol=1e-9, integrator="exact")
+>>> integ = integrator(opts.integrator)
+>>> integ.exact, integ.noise_rtol(opts), integrator("ida").noise_rtol(opts)
+(True, 1e-15, 1e-09)
 """
 
 from __future__ import annotations
