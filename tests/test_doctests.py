@@ -5,6 +5,7 @@ import doctest
 import pytest
 
 import hybrid.engine.simulate
+import hybrid.integrators.registry
 import hybrid.model.linear
 import hybrid.model.plot_hints
 import hybrid.model.system
@@ -16,6 +17,7 @@ import hybrid_models.overlays
 MODULES = [
     hybrid.orbits.autonomous,
     hybrid.engine.simulate,
+    hybrid.integrators.registry,
     hybrid.studies.sweep,
     hybrid.model.system,
     hybrid.model.linear,

@@ -13,10 +13,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..core.errors import HybridError
+from ..core.errors import InputError
 from ..core.options import INTEGRATORS, SolverOptions
-from ..integrators.affine import exact_flows
-from ..model.compiled import CompiledSystem
+from ..integrators.registry import integrator
 from ..model.plot_hints import plot_hints
 from ..model.registry import is_model_file
 from ..model.system import HybridSystem
@@ -30,7 +29,7 @@ MAX_SAMPLES_PER_PERIOD = 100_000
 OUT_HELP = "output folder (default out/NAME: the built-in model's name, or the stem of the model file)"
 
 
-class UsageError(HybridError, ValueError):
+class UsageError(InputError):
     """Bad command-line input."""
 
 
@@ -157,8 +156,7 @@ def add_work_limits(p: argparse.ArgumentParser) -> None:
 
 def check_integrator(system: HybridSystem, params: dict[str, float], options: SolverOptions) -> None:
     """Refuse, before any run, a model the chosen integrator cannot take (NotAffineError, exit 2)."""
-    if options.integrator == "exact":
-        exact_flows(CompiledSystem(system, params))
+    integrator(options.integrator).check_model(system, params)
 
 
 def budget_options(args) -> dict:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.errors import InputError, ParameterOutOfDomain
 from ..core.options import SolverOptions
 from ..model.system import HybridSystem
 from ..orbits.autonomous import AutonomousSolver, finish, resolve_phase
@@ -93,12 +94,12 @@ def equilibrium_branch(
         Unknown parameter or mode, fewer than two values.
     """
     if parameter not in system.parameter_names:
-        raise ValueError(
+        raise InputError(
             f"model `{system.name}` has no parameter `{parameter}`; parameters: {', '.join(system.parameter_names)}"
         )
     values = np.asarray(values, dtype=float)
     if values.ndim != 1 or values.size < 2:
-        raise ValueError("`values` must hold at least two parameter values")
+        raise InputError("`values` must hold at least two parameter values")
     points: list[Equilibrium] = []
     guess = x0
     for v in values:
@@ -152,7 +153,7 @@ def _branch(
         y = unpack(u)
         if anchored:
             if not u[nd] > 0:
-                raise RuntimeError("nonpositive period")
+                raise ParameterOutOfDomain("nonpositive period")
             if state["anchor"] is None:
                 f = fm.field(mode, y)[d]
                 state["anchor"] = (y.copy(), f / np.linalg.norm(f))
@@ -255,11 +256,11 @@ def orbit_branch(
     """
     system = orbit.system
     if parameter not in system.parameter_names:
-        raise ValueError(
+        raise InputError(
             f"model `{system.name}` has no parameter `{parameter}`; parameters: {', '.join(system.parameter_names)}"
         )
     if direction not in (1, -1):
-        raise ValueError(f"`direction` must be 1 or -1, got {direction!r}")
+        raise InputError(f"`direction` must be 1 or -1, got {direction!r}")
     phase = resolve_phase(system, phase)
     options = ORBIT_OPTIONS if options is None else options
     settings = settings or PalcSettings()
@@ -309,7 +310,7 @@ def hopf_branch(
     k = int(np.argmax(lam.real))
     om = abs(float(lam[k].imag))
     if not om > 0:
-        raise ValueError("the critical eigenvalue of `eq` is real: not a Hopf point")
+        raise InputError("the critical eigenvalue of `eq` is real: not a Hopf point")
     q = vec[:, k]
     q = q * np.exp(-1j * np.angle(q[np.argmax(np.abs(q))]))  # largest component real
     qr = q.real / np.linalg.norm(q.real)

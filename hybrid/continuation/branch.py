@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.errors import InputError, ModelError
 from ..model.expr import free_symbols
 from ..model.system import HybridSystem
 from ..orbits.orbit import (
@@ -111,13 +112,13 @@ def forcing_parameter(system: HybridSystem) -> str:
     """
     pe = system.parsed.period
     if pe is None:
-        raise ValueError(
+        raise ModelError(
             f"model `{system.name}` declares no forcing `period`: this continuation of forced orbits needs "
             "one (an autonomous model's orbits: hybrid.orbit_branch, hybrid.hopf_branch, `hybrid cont`)"
         )
     names = sorted(free_symbols(pe) & set(system.parameter_names))
     if len(names) != 1:
-        raise ValueError(
+        raise InputError(
             f"model `{system.name}`: its period depends on {len(names)} parameters "
             f"({', '.join(names) or 'none'}); name the parameter to continue in"
         )

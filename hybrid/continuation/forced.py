@@ -27,7 +27,7 @@ from functools import partial
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError
 from ..core.options import ContinuationOptions, SolverOptions, check_samples
 from ..engine.simulate import check_time_range, initial_state
 from ..model.system import HybridSystem
@@ -268,10 +268,10 @@ class _Continuer:
             for src in (coarse, self.sh) if use else (self.sh,):
                 try:
                     Jy, Jp, M = self.jacobian(tr, y, p, pt.mode, pt.phi, nw, sh=src)
-                except (*_FAILURES, ZeroDivisionError):
+                except (*_FAILURES, GrazingSwitchError):
                     if src is self.sh:
                         raise
-                    continue  # (a grazing switch): the requested map's
+                    continue  # (e.g. a grazing switch): the requested map's
                 A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
                 w = _row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
                 A, rhs = A * w[:, None], rhs * w
@@ -498,32 +498,32 @@ def continue_orbits(
     """
     options = ORBIT_OPTIONS if options is None else options
     if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+        raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
     unknown = set(legacy) - set(_LEGACY)
     if unknown:
-        raise TypeError(f"continue_orbits() got unexpected keyword argument(s) {sorted(unknown)}")
+        raise InputTypeError(f"continue_orbits() got unexpected keyword argument(s) {sorted(unknown)}")
     if settings is None:
         settings = ContinuationOptions()
     elif not isinstance(settings, ContinuationOptions):
-        raise TypeError(f"`settings` must be a ContinuationOptions, got {type(settings).__name__}")
+        raise InputTypeError(f"`settings` must be a ContinuationOptions, got {type(settings).__name__}")
     if legacy:
         settings = replace(settings, **legacy)
     if parameter is None:
         parameter = forcing_parameter(system)
     if parameter not in system.parameter_names:
-        raise ValueError(
+        raise InputError(
             f"model `{system.name}` has no parameter `{parameter}`; parameters: {', '.join(system.parameter_names)}"
         )
     if p_range is None or len(p_range) != 2:
-        raise ValueError(f"`p_range` must be two numbers (start, end), got {p_range!r}")
+        raise InputError(f"`p_range` must be two numbers (start, end), got {p_range!r}")
     a, b = (float(v) for v in p_range)
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
-        raise ValueError(f"`p_range` must be two different finite numbers, got {p_range!r}")
+        raise InputError(f"`p_range` must be two different finite numbers, got {p_range!r}")
     check_samples(settings.samples_per_period)
     start_params = system.parameter_values({**dict(params), parameter: a})
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
-        raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
+        raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     y0 = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
     c = _Continuer(system, start_params, parameter, (a, b), options, settings)

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.budget import current_deadline, deadline_passed
 from ..core.budget import restore_deadline as _deadline
+from ..core.errors import InputError, WorkerError
 from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem, shared
 from .branch import Branch, forcing_parameter
@@ -42,7 +43,7 @@ def default_range(system: HybridSystem, params: Mapping[str, float]) -> tuple[fl
     """
     w = natural_frequencies(system, params)
     if w.size == 0:
-        raise ValueError(
+        raise InputError(
             f"model `{system.name}`: its initial mode linearised at the zero state has no natural "
             "frequency to centre the range on; give the range (--omega-range A B)"
         )
@@ -248,6 +249,12 @@ def frequency_response(
     -------
     FrequencyResponse
 
+    Raises
+    ------
+    hybrid.core.errors.WorkerError
+        A worker process failed (its exception's type and message in this one's) or ended
+        without a result.
+
     Examples
     --------
     >>> import hybrid
@@ -260,9 +267,9 @@ def frequency_response(
         parameter = forcing_parameter(system)
     lo, hi = (float(v) for v in p_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
-        raise ValueError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
+        raise InputError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
     if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
-        raise ValueError(f"`workers` must be an integer >= 1, got {workers!r}")
+        raise InputError(f"`workers` must be an integer >= 1, got {workers!r}")
     res = natural_frequencies(system, params)
     out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
     cuts = _cuts(lo, hi, res)
@@ -408,7 +415,7 @@ def _parallel(
             pieces[i] = msg[2]
             running.pop(i).join()
         else:
-            raise RuntimeError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
+            raise WorkerError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
         while nxt < len(cuts):  # orbits of the pieces whose predecessors are done, in branch order
             if on_point is not None:
                 for j, o in held[nxt]:
@@ -436,7 +443,7 @@ def _parallel(
                 dead = [i for i, p in running.items() if p.exitcode is not None]
                 if dead and not queue._reader.poll(0.1):
                     i = dead[0]
-                    raise RuntimeError(
+                    raise WorkerError(
                         f"frequency response: the worker of piece {i} ended without a result "
                         f"(exit code {running[i].exitcode})"
                     )

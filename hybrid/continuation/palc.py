@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.errors import GrazingSwitchError
+
 __all__ = ["PalcSettings", "follow", "RETRY"]
 
 #: What ``accept`` returns for a point that lies beyond a boundary of the branch (e.g. where the
@@ -71,8 +73,8 @@ def follow(
     Parameters
     ----------
     evaluate : callable
-        ``u -> (F, J, info)``; may raise ``RuntimeError`` or ``ZeroDivisionError`` (a failed
-        evaluation: the step is shortened).
+        ``u -> (F, J, info)``; may raise ``RuntimeError``, :class:`hybrid.core.errors.GrazingSwitchError`
+        or ``ZeroDivisionError`` (a failed evaluation: the step is shortened).
     u0 : ndarray, shape (n+1,)
         A solution (it is corrected first along ``t0``'s normal hyperplane).
     t0 : ndarray, shape (n+1,)
@@ -131,7 +133,7 @@ def _correct(evaluate, u, t, st: PalcSettings):
     for it in range(st.max_iter):
         try:
             F, J, info = evaluate(u)
-        except (RuntimeError, ZeroDivisionError, np.linalg.LinAlgError):
+        except (RuntimeError, GrazingSwitchError, ZeroDivisionError, np.linalg.LinAlgError):
             return None
         if not np.all(np.isfinite(F)):
             return None

@@ -261,7 +261,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     with_lo = bool(changed) and _fraction(a.view(), changed) > 0
     first = a if with_lo else b
     # the squared fraction on a noise-free map (see above); on IDA's the fraction itself
-    power = 2 if c.sh.noise_rtol < 1e-14 else 1
+    power = 2 if c.sh.integrator.exact else 1
     hist = (
         [(0.0 if with_lo else ds, _fraction(first.view(), changed) ** power, first.p, first)]
         if changed

@@ -16,9 +16,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 
-from .errors import BudgetExceeded
+from .errors import BudgetExceeded, InputError
 
-__all__ = ["time_limit", "Budget", "BudgetExceeded", "deadline_passed"]
+__all__ = ["time_limit", "Budget", "deadline_passed"]
 
 _DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("hybrid_deadline", default=None)
 
@@ -52,7 +52,7 @@ def time_limit(seconds: float) -> Iterator[None]:
         or not isinstance(seconds, int | float)
         or not (math.isfinite(seconds) and seconds > 0)
     ):
-        raise ValueError(f"`time_limit` needs a finite number of seconds > 0, got {seconds!r}")
+        raise InputError(f"`time_limit` needs a finite number of seconds > 0, got {seconds!r}")
     deadline = _clock() + float(seconds)
     outer = _DEADLINE.get()
     token = _DEADLINE.set((deadline, float(seconds)) if outer is None or deadline < outer[0] else outer)

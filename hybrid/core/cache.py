@@ -14,6 +14,8 @@ from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Any
 
+from .errors import InputError
+
 __all__ = ["DerivedCache", "LRUCache"]
 
 
@@ -37,7 +39,7 @@ class DerivedCache:
         with self._lock:
             if key not in self._values:
                 if len(self._values) >= self._limit:
-                    raise RuntimeError(f"DerivedCache: more than {self._limit} keys (a key made of data?)")
+                    raise InputError(f"DerivedCache: more than {self._limit} keys (a key made of data?)")
                 self._values[key] = make()
             return self._values[key]
 
@@ -59,7 +61,7 @@ class LRUCache:
 
     def __init__(self, size: int):
         if size < 1:
-            raise ValueError(f"LRUCache: `size` must be >= 1, got {size!r}")
+            raise InputError(f"LRUCache: `size` must be >= 1, got {size!r}")
         self.size = size
         self._data: OrderedDict = OrderedDict()
 

@@ -6,6 +6,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from .errors import InputError
+
 __all__ = ["SolverOptions", "ContinuationOptions", "check_samples", "MIN_SAMPLES"]
 
 
@@ -18,7 +20,7 @@ def _positive(name: str, value, *, allow_none: bool = False) -> None:
         or not math.isfinite(value)
         or value <= 0
     ):
-        raise ValueError(f"SolverOptions: `{name}` must be a finite number > 0, got {value!r}")
+        raise InputError(f"SolverOptions: `{name}` must be a finite number > 0, got {value!r}")
 
 
 #: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
@@ -32,7 +34,7 @@ def check_samples(samples_per_period) -> None:
         or not isinstance(samples_per_period, int)
         or samples_per_period < MIN_SAMPLES
     ):
-        raise ValueError(
+        raise InputError(
             f"`samples_per_period` must be an integer >= {MIN_SAMPLES} (the amplitudes are taken from the "
             f"samples), got {samples_per_period!r}"
         )
@@ -115,7 +117,7 @@ class SolverOptions:
     def __post_init__(self):
         _positive("rtol", self.rtol)
         if not 1e-14 <= self.rtol <= 1e-2:
-            raise ValueError(f"SolverOptions: `rtol` must lie in [1e-14, 1e-2], got {self.rtol!r}")
+            raise InputError(f"SolverOptions: `rtol` must lie in [1e-14, 1e-2], got {self.rtol!r}")
         if isinstance(self.atol, Mapping):
             for k, v in self.atol.items():
                 _positive(f"atol[{k!r}]", v)
@@ -130,13 +132,13 @@ class SolverOptions:
         for name in ("max_num_steps", "max_steps", "zeno_count", "max_chain", "taylor_order"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")
+                raise InputError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")
         if self.integrator not in INTEGRATORS:
-            raise ValueError(
+            raise InputError(
                 f"SolverOptions: `integrator` must be one of {', '.join(INTEGRATORS)}, got {self.integrator!r}"
             )
         if self.taylor_order < 2:
-            raise ValueError(
+            raise InputError(
                 "SolverOptions: `taylor_order` must be >= 2 (a switch into stick needs the second order)"
             )
 
@@ -146,7 +148,7 @@ class SolverOptions:
             return [float(self.atol)] * len(names)
         unknown = set(self._atol_map) - set(names)
         if unknown:
-            raise ValueError(
+            raise InputError(
                 f"SolverOptions: `atol` names unknown variable(s) {sorted(unknown)}; variables: {list(names)}"
             )
         return [float(self._atol_map.get(n, self.atol_default)) for n in names]
@@ -217,20 +219,20 @@ class ContinuationOptions:
         for name in ("ds", "ds_min", "ds_max", "tol", "step_tol", "locate_tol", "max_growth", "max_angle"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"ContinuationOptions: `{name}` must be a number > 0, got {v!r}")
+                raise InputError(f"ContinuationOptions: `{name}` must be a number > 0, got {v!r}")
         if not self.ds_min <= self.ds <= self.ds_max:
-            raise ValueError(
+            raise InputError(
                 f"ContinuationOptions: need ds_min <= ds <= ds_max, got {self.ds_min}, {self.ds}, {self.ds_max}"
             )
         if self.max_growth <= 1:
-            raise ValueError(f"ContinuationOptions: `max_growth` must be > 1, got {self.max_growth!r}")
+            raise InputError(f"ContinuationOptions: `max_growth` must be > 1, got {self.max_growth!r}")
         check_samples(self.samples_per_period)
         for name in ("max_points", "max_iter", "locate_max_iter", "max_failures"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"ContinuationOptions: `{name}` must be an integer >= 1, got {v!r}")
+                raise InputError(f"ContinuationOptions: `{name}` must be an integer >= 1, got {v!r}")
         v = self.transient_periods
         if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise ValueError(f"ContinuationOptions: `transient_periods` must be an integer >= 0, got {v!r}")
+            raise InputError(f"ContinuationOptions: `transient_periods` must be an integer >= 0, got {v!r}")
         if not isinstance(self.locate, bool):
-            raise ValueError(f"ContinuationOptions: `locate` must be True or False, got {self.locate!r}")
+            raise InputError(f"ContinuationOptions: `locate` must be True or False, got {self.locate!r}")

@@ -27,15 +27,15 @@ from collections import deque
 
 import numpy as np
 
-from ..core.budget import Budget, BudgetExceeded
-from ..core.errors import SimulationError
+from ..core.budget import Budget
+from ..core.errors import AlgebraicSolveError, BudgetExceeded, SampleCapReached, SimulationError
 from ..core.options import SolverOptions
-from ..integrators.affine import exact_flows
-from ..integrators.exact import ExactModeSolver
-from ..integrators.ida import ROOT, TSTOP, ModeSolver, StepResult, explain
-from ..model.compiled import AlgebraicSolveError, CompiledMode, CompiledSystem, lead_sign
+from ..integrators.base import ROOT, TSTOP, FlowSolver, StepResult
+from ..integrators.ida import explain
+from ..integrators.registry import integrator
+from ..model.compiled import CompiledMode, CompiledSystem, lead_sign
 from ..model.linear import fast_dynamics
-from .record import Recorder, SampleCapReached
+from .record import Recorder
 from .sampling import SampleGrid
 from .trajectory import Status, Trajectory, TransitionRecord
 
@@ -44,10 +44,6 @@ __all__ = ["step_bound"]
 
 #: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
 CAREFUL_FIRST_STEP = 1e-6
-
-
-#: IDA solvers kept per compiled system (by mode, settings and first step).
-MAX_SHARED_SOLVERS = 64
 
 
 class _CallbackFailed(Exception):
@@ -94,6 +90,7 @@ class Run:
     ):
         self.cs = cs
         self.opt = options
+        self.integ = integrator(options.integrator)
         self.atol = np.asarray(atol)
         self.t0, self.t1 = t0, t1
         self.samples = samples
@@ -106,8 +103,8 @@ class Run:
         # Without a period the window is absolute (a fraction of the span would call any run long
         # enough a Zeno burst).
         self.zeno_window = options.zeno_window or (1e-6 * cs.period if cs.period else 1e-6)
-        self.solvers: dict[int, ModeSolver] = {}
-        self.careful: dict[int, ModeSolver] = {}  # solvers with a small first step (see segment)
+        self.solvers: dict[int, FlowSolver] = {}
+        self.careful: dict[int, FlowSolver] = {}  # solvers with a small first step (see segment)
         self.budget: Budget | None = None
         self.events: list[TransitionRecord] = []
         self.recent = deque(maxlen=options.zeno_count)
@@ -118,40 +115,16 @@ class Run:
         self.with_outputs = with_outputs  # evaluate the outputs (samples, start and final values)
 
     # ------------------------------------------------------------------
-    def solver(self, mode: int, careful: bool = False) -> ModeSolver:
-        """The mode's solver (``careful``: with a tiny first step).
-
-        IDA solvers are kept on the compiled system per mode and settings, and reused by later
-        runs (building one costs about 2 ms).
-        """
+    def solver(self, mode: int, careful: bool = False) -> FlowSolver:
+        """The mode's solver (``careful``: with a tiny first step), from the integrator
+        (:meth:`hybrid.integrators.base.Integrator.mode_solver`), kept for the run."""
         store = self.careful if careful else self.solvers
         s = store.get(mode)
-        if s is None and self.opt.integrator == "exact":
-            s = store[mode] = ExactModeSolver(exact_flows(self.cs)[mode], max_step=self.max_step)
         if s is None:
-            cm = self.cs.modes[mode]
-            # Slave variables are re-solved at every sample and switch; in IDA's error test their
-            # absolute tolerance is floored at rtol: a far tighter one on a slave variable crossing
-            # zero makes IDA stall in step-size cycles (tests/hybrid: nonlinear_dae).
-            atol = self.atol.copy()
-            atol[cm.alg_idx] = np.maximum(atol[cm.alg_idx], self.opt.rtol)
             h0 = CAREFUL_FIRST_STEP * self.max_step if careful else 0.0
-            max_num_steps = min(self.opt.max_num_steps, self.opt.max_steps)
-            shared = self.cs.__dict__.setdefault("_ida_solvers", {})
-            skey = (mode, h0, self.opt.rtol, atol.tobytes(), self.max_step, max_num_steps)
-            s = shared.get(skey)
-            if s is None:
-                if len(shared) >= MAX_SHARED_SOLVERS:
-                    shared.clear()
-                s = shared[skey] = ModeSolver(
-                    cm,
-                    rtol=self.opt.rtol,
-                    atol=atol,
-                    max_step=self.max_step,
-                    max_num_steps=max_num_steps,
-                    first_step=h0,
-                )
-            store[mode] = s
+            s = store[mode] = self.integ.mode_solver(
+                self.cs, mode, self.opt, atol=self.atol, max_step=self.max_step, first_step=h0
+            )
         return s
 
     def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
@@ -209,7 +182,7 @@ class Run:
     def project(self, cm: CompiledMode, t: float, y: np.ndarray) -> np.ndarray:
         """``y`` with the slave variables of ``cm`` re-solved (IDA's interpolant satisfies the
         algebraic equations only to the integration tolerance; the exact flow satisfies them)."""
-        if cm.alg_idx.size == 0 or self.opt.integrator == "exact":
+        if cm.alg_idx.size == 0 or not self.integ.resolves_slaves:
             return np.array(y, dtype=float)
         try:
             return cm.solve_algebraic(t, y)
@@ -220,8 +193,8 @@ class Run:
     def enter(self, mode: int, t: float, y: np.ndarray, after_switch: bool):
         """Consistent state in ``mode`` at ``t``, following switches the vector fields force.
 
-        Returns ``(mode, y, yp, disarmed)`` (``yp`` None on the exact integrator) with ``disarmed`` mapping guard
-        index to the safe sign reported to IDA while it is disarmed.
+        Returns ``(mode, y, yp, disarmed)`` (``yp`` None where the integrator does not need it) with
+        ``disarmed`` mapping guard index to the safe sign reported to the solver while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
         unresolved: list[str] = []  # switches of the chain decided within a guard's noise level
@@ -237,19 +210,15 @@ class Run:
             self.current = (t, y, mode)
             vals = cm.guard_values(t, y)
             fire, disarmed = None, {}
-            flow_series = None  # the flow's Taylor series at (t, y), computed once if a guard needs it
+            series_at = None  # the guards' Taylor series along the flow from (t, y), made if a guard needs it
             for g in cm.guards:
                 h = vals[g.index]
                 d = g.direction
                 eta = self.noise(cm, g.index, t, y)
                 if abs(h) <= eta:
-                    if self.opt.integrator == "exact":  # the exact flow's series: W M^j z / j!
-                        series = exact_flows(self.cs)[mode].guard_series(g.index, t, y, self.opt.taylor_order)
-                    else:
-                        if flow_series is None:
-                            flow_series = cm.taylor(t, y, self.opt.taylor_order)
-                        series = cm.guard_series(g.index, t, y, self.opt.taylor_order, flow_series)
-                    s = lead_sign(series, eta)
+                    if series_at is None:
+                        series_at = self.integ.guard_series(self.cs, mode, t, y, self.opt.taylor_order)
+                    s = lead_sign(series_at(g.index), eta)
                     if d != 0 and s == d:
                         fire = g
                         unresolved.append(f"`{g.name}` of mode `{cm.name}` ({h:.3g} within {eta:.3g})")
@@ -267,7 +236,7 @@ class Run:
                         Status.SOLVER_FAILED, f"state became non-finite at t={t!r} in mode `{cm.name}`"
                     )
                 # (the exact flow starts from the state alone: no consistent y' to compute)
-                yp = None if self.opt.integrator == "exact" else cm.derivatives(t, y)
+                yp = cm.derivatives(t, y) if self.integ.needs_derivatives else None
                 return mode, y, yp, disarmed
             visited.append((mode, y))
             y_new = self.apply_reset(fire, t, y)
@@ -392,7 +361,7 @@ class Run:
             if j > self.next_sample:
                 ts = s.times(self.next_sample, j) if grid else s[self.next_sample : j]
                 Y, m = many(ts)
-                if self.opt.integrator == "exact" or self.cs.modes[m].alg_idx.size == 0:
+                if not self.integ.resolves_slaves or self.cs.modes[m].alg_idx.size == 0:
                     for ev in self.events:  # as record(), for all at once (no slave variable to re-solve)
                         self.rec.add_event(ev)
                     self.events.clear()
@@ -531,7 +500,7 @@ class Run:
             self.record(t, y, mode)
         return t, y, mode, yp, disarmed
 
-    def locate_missed(self, solver: ModeSolver, cm: CompiledMode, k: int, t_prev: float, r):
+    def locate_missed(self, solver: FlowSolver, cm: CompiledMode, k: int, t_prev: float, r):
         """Locate on the last step a crossing of guard ``k`` seen only at the step's end."""
         fn = cm.guards[k].fn
 

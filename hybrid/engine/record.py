@@ -15,10 +15,10 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..core.errors import SampleCapReached
+from ..core.errors import InputError, SampleCapReached
 from .trajectory import TransitionRecord
 
-__all__ = ["Sink", "Tee", "Envelope", "SampleCapReached", "Recorder", "MAX_SAMPLES", "MAX_STREAMED_SAMPLES"]
+__all__ = ["Sink", "Tee", "Envelope", "Recorder", "MAX_SAMPLES", "MAX_STREAMED_SAMPLES"]
 
 #: Samples a trajectory may hold in memory.
 MAX_SAMPLES = 2_000_000
@@ -104,9 +104,9 @@ class Envelope(Sink):
     ):
         t0, t1 = (float(v) for v in t_span)
         if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-            raise ValueError(f"`t_span` must be finite with t1 > t0, got {t_span!r}")
+            raise InputError(f"`t_span` must be finite with t1 > t0, got {t_span!r}")
         if isinstance(buckets, bool) or not isinstance(buckets, int) or buckets < 1:
-            raise ValueError(f"`buckets` must be an integer >= 1, got {buckets!r}")
+            raise InputError(f"`buckets` must be an integer >= 1, got {buckets!r}")
         self.names = tuple(names)
         self.variables = tuple(variables)
         self.t0, self.t1, self.buckets = t0, t1, buckets

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from ..core.errors import InputError
 from .record import MAX_SAMPLES, MAX_STREAMED_SAMPLES
 
 __all__ = []
@@ -24,7 +25,7 @@ def check_sample_count(samples, span: float, max_step: float, streamed: bool) ->
     if samples is None:
         n = math.ceil(min(span / max_step, 1e18))
         if n > cap:
-            raise ValueError(
+            raise InputError(
                 f"sampling every internal step of at most {max_step:.6g} s over {span:.6g} s makes at least {n} "
                 f"samples; at most {cap} may be {where}: give `samples_per_period` or `t_eval`, or {advice}"
             )
@@ -32,7 +33,7 @@ def check_sample_count(samples, span: float, max_step: float, streamed: bool) ->
     n = samples.size
     if n > cap:
         what = getattr(samples, "description", f"{n} sample times")
-        raise ValueError(f"{what} make {n} samples; at most {cap} may be {where}: {advice}")
+        raise InputError(f"{what} make {n} samples; at most {cap} may be {where}: {advice}")
 
 
 class SampleGrid:
@@ -69,12 +70,12 @@ class SampleGrid:
 
 def sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | SampleGrid | None:
     if t_eval is not None and spp is not None:
-        raise ValueError("give `t_eval` or `samples_per_period`, not both")
+        raise InputError("give `t_eval` or `samples_per_period`, not both")
     if spp is not None:
         if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
-            raise ValueError(f"`samples_per_period` must be an integer >= 1, got {spp!r}")
+            raise InputError(f"`samples_per_period` must be an integer >= 1, got {spp!r}")
         if period is None:
-            raise ValueError("`samples_per_period` needs a model with a forcing period")
+            raise InputError("`samples_per_period` needs a model with a forcing period")
         n = int(math.floor(min((t1 - t0) / period * spp, 1e12) + 1e-9))
         what = f"{(t1 - t0) / period:.6g} periods at `samples_per_period` = {spp}"
         return SampleGrid(t0, period / spp, n, t1, what)
@@ -82,9 +83,9 @@ def sample_times(t_eval, spp, period, t0, t1) -> np.ndarray | SampleGrid | None:
         return None
     ts = np.asarray(t_eval, dtype=float).ravel()
     if ts.size > MAX_STREAMED_SAMPLES:
-        raise ValueError(f"`t_eval` has {ts.size} times; at most {MAX_STREAMED_SAMPLES} are allowed")
+        raise InputError(f"`t_eval` has {ts.size} times; at most {MAX_STREAMED_SAMPLES} are allowed")
     if ts.size == 0 or not np.all(np.isfinite(ts)):
-        raise ValueError("`t_eval` must be a non-empty array of finite times")
+        raise InputError("`t_eval` must be a non-empty array of finite times")
     if np.any(np.diff(ts) < 0) or ts[0] < t0 or ts[-1] > t1:
-        raise ValueError(f"`t_eval` must be increasing and lie within t_span [{t0}, {t1}]")
+        raise InputError(f"`t_eval` must be increasing and lie within t_span [{t0}, {t1}]")
     return ts

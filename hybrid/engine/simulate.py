@@ -13,17 +13,17 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..core.errors import SimulationError
+from ..core.errors import AlgebraicSolveError, InputError, InputTypeError
 from ..core.options import SolverOptions
-from ..integrators.affine import exact_flows
-from ..model.compiled import AlgebraicSolveError, CompiledSystem
+from ..integrators.registry import integrator
+from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 from .eventloop import Run, step_bound
 from .record import MAX_SAMPLES, Recorder, Sink
 from .sampling import check_sample_count, sample_times
 from .trajectory import Trajectory
 
-__all__ = ["simulate", "initial_state", "SimulationError"]
+__all__ = ["simulate", "initial_state"]
 
 #: The step bound must span at least this many float spacings of t over the run (else the steps
 #: cannot be resolved: at t = 1e15 a step of a few seconds is a few spacings of 0.125 s).
@@ -42,23 +42,23 @@ def initial_state(system: HybridSystem, x0, mode: str | None = None) -> np.ndarr
     if isinstance(x0, Mapping):
         unknown = [k for k in x0 if k not in names]
         if unknown:
-            raise ValueError(
+            raise InputError(
                 f"initial state names unknown variable(s) {', '.join(map(str, unknown))}; variables: {', '.join(names)}"
             )
         optional = set(system.quadratures) | (set(system.algebraic_variables(mode)) if mode else set())
         missing = [n for n in names if n not in x0 and n not in optional]
         if missing:
-            raise ValueError(f"initial state lacks variable(s) {', '.join(missing)}")
+            raise InputError(f"initial state lacks variable(s) {', '.join(missing)}")
         y = np.array([float(x0.get(n, 0.0)) for n in names])
     else:
         y = np.array(x0, dtype=float).ravel()
         if y.size != len(names):
-            raise ValueError(
+            raise InputError(
                 f"initial state has {y.size} values; model `{system.name}` has {len(names)} variables ({', '.join(names)})"
             )
     if not np.all(np.isfinite(y)):
         bad = [n for n, v in zip(names, y, strict=True) if not math.isfinite(v)]
-        raise ValueError(f"initial state is not finite for {', '.join(bad)}")
+        raise InputError(f"initial state is not finite for {', '.join(bad)}")
     return y
 
 
@@ -157,30 +157,31 @@ def simulate(
     0.451524
     """
     if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+        raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
     if params is None or not isinstance(params, Mapping):
-        raise TypeError("`params` must be a mapping of parameter names to values (see HybridSystem.preset)")
+        raise InputTypeError(
+            "`params` must be a mapping of parameter names to values (see HybridSystem.preset)"
+        )
     options = SolverOptions() if options is None else options
     if not isinstance(options, SolverOptions):
-        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
+        raise InputTypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
     try:
         t0, t1 = (float(v) for v in t_span)
     except (TypeError, ValueError):
-        raise ValueError(f"`t_span` must be two numbers (t0, t1), got {t_span!r}") from None
+        raise InputError(f"`t_span` must be two numbers (t0, t1), got {t_span!r}") from None
     if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-        raise ValueError(f"`t_span` must be finite with t1 > t0, got {t_span!r}")
+        raise InputError(f"`t_span` must be finite with t1 > t0, got {t_span!r}")
     if isinstance(max_transitions, bool) or not isinstance(max_transitions, int) or max_transitions < 0:
-        raise ValueError(f"`max_transitions` must be an integer >= 0, got {max_transitions!r}")
+        raise InputError(f"`max_transitions` must be an integer >= 0, got {max_transitions!r}")
     _check_sink(sink, keep_last)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
-        raise ValueError(
+        raise InputError(
             f"`mode0` is required: model `{system.name}` declares no initial mode; modes: {', '.join(system.mode_names)}"
         )
     system.mode(mode0)
     cs = CompiledSystem(system, params)
-    if options.integrator == "exact":
-        exact_flows(cs)  # a model the exact integrator cannot take is refused before the run
+    integrator(options.integrator).check(cs)  # a model the integrator cannot take is refused before the run
     y0 = initial_state(system, x0, mode0)
     samples = sample_times(t_eval, samples_per_period, cs.period, t0, t1)
     check_time_range(cs, options, t0, t1)
@@ -266,12 +267,12 @@ def check_time_range(cs: CompiledSystem, options: SolverOptions, t0: float, t1: 
         else f"the step bound {h:.3g} s"
     )
     if h < MIN_STEP:
-        raise ValueError(
+        raise InputError(
             f"{what} is below {MIN_STEP:g} s: too short to integrate in floating point "
             "(check the forcing frequency and the time scale of the model)"
         )
     if h < RESOLVED_STEPS * spacing:
-        raise ValueError(
+        raise InputError(
             f"{what} is below {RESOLVED_STEPS:g} times the floating-point resolution of t near "
             f"t = {tmax:.3g} s ({spacing:.3g} s): the steps cannot be resolved there; start the time "
             f"span nearer 0 (e.g. shift it by a multiple of the period) or lengthen the steps"
@@ -292,7 +293,7 @@ def check_initial_state(cs: CompiledSystem, mode: str, t0: float, y0: np.ndarray
             cm.outputs[o](v)
         except (ArithmeticError, ValueError) as exc:
             big = ", ".join(f"{n} = {x:.3g}" for n, x in zip(cs.names, y, strict=False) if abs(x) > 1e100)
-            raise ValueError(
+            raise InputError(
                 f"the initial state cannot be evaluated: output `{o}` of mode `{cm.name}` at t = {t0:g} "
                 f"fails ({type(exc).__name__}: {exc})" + (f"; out of range: {big}" if big else "")
             ) from None
@@ -302,10 +303,10 @@ def _check_sink(sink, keep_last) -> None:
     if sink is not None and not (
         callable(getattr(sink, "samples", None)) and callable(getattr(sink, "event", None))
     ):
-        raise TypeError(
+        raise InputTypeError(
             f"`sink` must have methods `samples` and `event` (see hybrid.Sink), got {type(sink).__name__}"
         )
     if isinstance(keep_last, bool) or not isinstance(keep_last, int | float) or not keep_last >= 0:
-        raise ValueError(f"`keep_last` must be a number >= 0 [s], got {keep_last!r}")
+        raise InputError(f"`keep_last` must be a number >= 0 [s], got {keep_last!r}")
     if sink is None and keep_last != 0:
-        raise ValueError("`keep_last` needs a `sink`: without one the trajectory keeps every sample")
+        raise InputError("`keep_last` needs a `sink`: without one the trajectory keeps every sample")

@@ -1,7 +1,9 @@
 """Sensitivity of a hybrid flow: variational equations per mode, saltation matrices at switches.
 
 Between switches the fundamental matrix ``Y = dy(t)/dy(t0)`` follows the
-linearised DAE of the mode (:class:`hybrid.integrators.ida.SensitivitySolver`). At a
+linearised DAE of the mode (the integrator's variational solver:
+:class:`hybrid.integrators.ida.SensitivitySolver`, or the exact flow's
+:class:`hybrid.integrators.exact.ExactSensitivity`). At a
 switch at ``t_s`` with guard ``h(t, y) = 0``, reset ``y+ = R(t, y-)`` and the
 new mode's slave variables re-solved (the projection ``Pi`` onto the new
 mode's constraint manifold, ``z = zeta(t, y_d)``), ``Y`` jumps by the
@@ -27,10 +29,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.budget import Budget
+from ..core.errors import GrazingSwitchError, ModelError
 from ..core.options import SolverOptions
-from ..integrators.affine import affine_flows, exact_flows
-from ..integrators.exact import ExactSensitivity, NotAffineError
-from ..integrators.ida import SensitivitySolver
+from ..integrators.base import VariationalSolver
+from ..integrators.registry import integrator
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledMode, CompiledSystem
 from ..model.expr import diff
@@ -98,7 +100,7 @@ def guard_index(mode: CompiledMode, name: str) -> int:
     for g in mode.guards:
         if g.name == name:
             return g.index
-    raise KeyError(f"mode `{mode.name}` has no transition `{name}`")
+    raise ModelError(f"mode `{mode.name}` has no transition `{name}`")
 
 
 def saltation(
@@ -131,6 +133,11 @@ def saltation(
     Returns
     -------
     ndarray, shape (len(s), len(s))
+
+    Raises
+    ------
+    hybrid.core.errors.GrazingSwitchError
+        The guard that fired has a zero rate along the flow there (``timed`` only).
     """
     resets = resets or ResetJacobians()
     t = chain[0].t
@@ -158,7 +165,7 @@ def saltation(
     h_y, h_t = src.guard_gradient(guard_index(src, first.guard), t, y_minus)
     denom = h_t + h_y @ f_minus
     if denom == 0.0:
-        raise ZeroDivisionError(
+        raise GrazingSwitchError(
             f"grazing switch: the guard of `{first.guard}` at t={t!r} has a zero rate along the flow where "
             "it fires (the orbit touches it tangentially, or the guard is a step such as sign(...)), so its "
             "saltation matrix is undefined"
@@ -193,66 +200,13 @@ class Sensitivity:
         self.nb = nb
         self.options = options
         self.max_step = max_step
-        self._solvers: dict[int, SensitivitySolver] = {}
-        self._resets = ResetJacobians()
-        self._exact_key: tuple | None = None
-        self._exact_modes: dict = {}
+        self.resets = ResetJacobians()
+        # the integrator's variational solvers of the modes (kept: built on first use)
+        self._solvers = integrator(options.integrator).variational(cs, self.s, options, max_step)
         self.nfev = 0
 
-    def _exact_solver(self, m: int, extend: np.ndarray):
-        """The exact flow's sensitivity in mode ``m`` at the free parameters' values ``extend``.
-
-        The flows come from the system's parametric affine analysis (microseconds per parameter
-        set); the column of a free parameter is the Frechet derivative of the exact flow, with the
-        matrices' derivatives by central differences at ``p +- delta``
-        (:class:`hybrid.integrators.exact.ExactSensitivity`).
-        """
-
-        def flows(params):
-            try:
-                return affine_flows(cs.system, params)
-            except NotAffineError:  # affine only at these values: analysed on folded expressions
-                return exact_flows(CompiledSystem(cs.system, params))
-
-        key = tuple(float(v) for v in extend)
-        if self._exact_key != key:
-            cs = self.cs
-            params = {**cs.params, **dict(zip(cs.free, key, strict=True))}
-            base = flows(params)
-            pm = None
-            if cs.free:
-                if len(cs.free) > 1:
-                    raise ValueError("the exact integrator differentiates by one free parameter at most")
-                p = cs.free[0]
-                delta = 1e-6 * max(abs(params[p]), 1e-3)
-                plus = flows({**params, p: params[p] + delta})
-                minus = flows({**params, p: params[p] - delta})
-                pm = (plus, minus, delta)
-            self._exact_modes = {
-                k: ExactSensitivity(base[k], self.s, None if pm is None else (pm[0][k], pm[1][k], pm[2]))
-                for k in range(len(base))
-            }
-            self._exact_key = key
-        return self._exact_modes[m]
-
-    def _solver(self, m: int, extend: np.ndarray | None = None) -> SensitivitySolver:
-        if self.options.integrator == "exact":
-            return self._exact_solver(m, np.zeros(0) if extend is None else extend)
-        if m not in self._solvers:
-            o = self.options
-            n = self.cs.modes[m].n
-            atol = np.array(o.atol_vector(self.cs.names[: self.nb]) + [o.atol_default] * (n - self.nb))
-            self._solvers[m] = SensitivitySolver(
-                self.cs.modes[m],
-                self.s,
-                rtol=o.rtol,
-                atol=atol,
-                atol_sens=o.rtol,
-                max_step=self.max_step,
-                max_num_steps=min(o.max_num_steps, o.max_steps),
-            )
-            self._solvers[m].period = self.cs.period
-        return self._solvers[m]
+    def _solver(self, m: int, extend: np.ndarray | None = None) -> VariationalSolver:
+        return self._solvers.solver(m, np.zeros(0) if extend is None else extend)
 
     def fundamental(
         self,
@@ -286,11 +240,13 @@ class Sensitivity:
 
         Raises
         ------
-        hybrid.core.budget.BudgetExceeded
+        hybrid.core.errors.BudgetExceeded
             The run exhausted ``options.max_steps`` or ``max_wall_time``, or a
             :func:`hybrid.time_limit` ran out.
-        ZeroDivisionError
+        hybrid.core.errors.GrazingSwitchError
             A switch is tangent to the flow (grazing): its saltation matrix is undefined.
+        hybrid.core.errors.IntegratorError
+            IDA failed in the variational equations.
         """
         budget = Budget(self.options, t0, t1)
         cs, s = self.cs, self.s
@@ -310,11 +266,11 @@ class Sensitivity:
             if te > t:
                 _, Y = self._solver(m, extend).propagate(t, y, Y, te, budget)
             # Switches at t0 (an inadmissible start state) do not move with y0.
-            Y = saltation(cs, chain, extend, s, timed=te > t0, resets=self._resets) @ Y
+            Y = saltation(cs, chain, extend, s, timed=te > t0, resets=self.resets) @ Y
             y = np.concatenate([chain[-1].x_plus, extend])
             m = cs.mode_index[chain[-1].target]
             t = te
         if t1 > t:
             _, Y = self._solver(m, extend).propagate(t, y, Y, t1, budget)
-        self.nfev = sum(sv.nfev for sv in self._solvers.values())
+        self.nfev = self._solvers.nfev
         return Y

@@ -11,7 +11,8 @@ missed; each root is polished by Newton steps on the exact flow. The fundamental
 
 :class:`ExactModeSolver` offers the interface of :class:`hybrid.integrators.ida.ModeSolver`
 (the contract of :mod:`hybrid.integrators.base`), so the event loop of :func:`hybrid.simulate`
-(switch location, resets, chains, Zeno) is the same for both integrators.
+(switch location, resets, chains, Zeno) is the same for both integrators;
+:class:`ExactIntegrator` is the integrator as a whole (``SolverOptions(integrator="exact")``).
 """
 
 from __future__ import annotations
@@ -21,11 +22,14 @@ import math
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
-from ..core.errors import NotAffineError
-from .affine import AffineMode
-from .base import ROOT, SUCCESS, TSTOP, StepResult
+from ..core.errors import InputError, NotAffineError
+from ..core.options import SolverOptions
+from ..model.compiled import CompiledSystem
+from ..model.system import HybridSystem
+from .affine import AffineMode, affine_flows, exact_flows
+from .base import ROOT, SUCCESS, TSTOP, Integrator, StepResult
 
-__all__ = ["NotAffineError", "ExactModeSolver", "TAYLOR_DEGREE"]
+__all__ = ["ExactIntegrator", "ExactModeSolver", "ExactSensitivity", "ExactVariational", "TAYLOR_DEGREE"]
 
 #: Degree of the Taylor polynomial of a guard along one step (steps are sized so that it is exact to rounding).
 TAYLOR_DEGREE = 24
@@ -423,3 +427,114 @@ class ExactSensitivity:
             Y[self.pos_p] = Y0[self.pos_p]
         self.nfev += 1
         return None, Y
+
+
+class ExactVariational:
+    """The exact flows' variational solvers of one compiled system's modes (one
+    :class:`ExactSensitivity` per mode, for one value of the free parameters at a time; see
+    :meth:`ExactIntegrator.variational`).
+
+    The flows come from the system's parametric affine analysis (microseconds per parameter
+    set); the column of a free parameter is the Frechet derivative of the exact flow, with the
+    matrices' derivatives by central differences at ``p +- delta``.
+    """
+
+    def __init__(self, cs: CompiledSystem, s: np.ndarray):
+        self.cs, self.s = cs, s
+        self._key: tuple | None = None
+        self._modes: dict[int, ExactSensitivity] = {}
+
+    #: Residual evaluations (none: the exact flow evaluates no residual).
+    nfev = 0
+
+    def _flows(self, params: dict) -> list[AffineMode]:
+        try:
+            return affine_flows(self.cs.system, params)
+        except NotAffineError:  # affine only at these values: analysed on folded expressions
+            return exact_flows(CompiledSystem(self.cs.system, params))
+
+    def solver(self, m: int, extend: np.ndarray) -> ExactSensitivity:
+        """Mode ``m``'s solver at the free parameters' values ``extend``."""
+        key = tuple(float(v) for v in extend)
+        if self._key != key:
+            cs = self.cs
+            params = {**cs.params, **dict(zip(cs.free, key, strict=True))}
+            base = self._flows(params)
+            pm = None
+            if cs.free:
+                if len(cs.free) > 1:
+                    raise InputError("the exact integrator differentiates by one free parameter at most")
+                p = cs.free[0]
+                delta = 1e-6 * max(abs(params[p]), 1e-3)
+                plus = self._flows({**params, p: params[p] + delta})
+                minus = self._flows({**params, p: params[p] - delta})
+                pm = (plus, minus, delta)
+            self._modes = {
+                k: ExactSensitivity(base[k], self.s, None if pm is None else (pm[0][k], pm[1][k], pm[2]))
+                for k in range(len(base))
+            }
+            self._key = key
+        return self._modes[m]
+
+
+class ExactIntegrator(Integrator):
+    """The exact flow of affine modes: matrix exponentials and exact guard roots, for models whose
+    modes and guards are affine in the state with time only in sin/cos of one forcing frequency."""
+
+    name = "exact"
+    exact = True
+    needs_derivatives = False
+    resolves_slaves = False
+    runtime_parameters = True
+    broyden = False
+    coarse_stage = False
+    switch_time_newton = True
+
+    #: Relative accuracy of one run of a map: rounding.
+    NOISE_RTOL = 1e-15
+
+    def check(self, cs: CompiledSystem) -> None:
+        """Refuse a compiled system whose modes are not all affine (:func:`exact_flows`).
+
+        Raises
+        ------
+        hybrid.core.errors.NotAffineError
+            Naming the model, the first mode and the term that is not affine.
+        """
+        exact_flows(cs)
+
+    def check_model(self, system: HybridSystem, params) -> None:
+        """Refuse a model that is not affine at ``params`` (compiled at them for the check)."""
+        exact_flows(CompiledSystem(system, params))
+
+    def noise_rtol(self, options: SolverOptions) -> float:
+        """:attr:`NOISE_RTOL`: the tolerances do not apply to the exact flow."""
+        return self.NOISE_RTOL
+
+    def mode_solver(
+        self,
+        cs: CompiledSystem,
+        mode: int,
+        options: SolverOptions,
+        *,
+        atol: np.ndarray,
+        max_step: float,
+        first_step: float = 0.0,
+    ) -> ExactModeSolver:
+        """An :class:`ExactModeSolver` on the mode's exact flow (tolerances and first step do not apply)."""
+        return ExactModeSolver(exact_flows(cs)[mode], max_step=max_step)
+
+    def guard_series(self, cs: CompiledSystem, mode: int, t: float, y: np.ndarray, order: int):
+        """The guards' series of the exact flow: ``W_k M^j z / j!``."""
+        am = exact_flows(cs)[mode]
+        return lambda k: am.guard_series(k, t, y, order)
+
+    def variational(
+        self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float
+    ) -> ExactVariational:
+        """The exact flows' fundamental matrices (:class:`ExactSensitivity`)."""
+        return ExactVariational(cs, s)
+
+    def exact_flows(self, cs: CompiledSystem) -> list[AffineMode]:
+        """:func:`hybrid.integrators.affine.exact_flows`."""
+        return exact_flows(cs)

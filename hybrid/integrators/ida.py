@@ -14,14 +14,26 @@ import sys
 
 import numpy as np
 
-from ..core.budget import Budget, BudgetExceeded
-from ..model.compiled import CompiledMode
+from ..core.budget import Budget
+from ..core.errors import BudgetExceeded, IntegratorError
+from ..core.options import SolverOptions
+from ..model.compiled import CompiledMode, CompiledSystem
 from ..model.linear import fast_dynamics
-from .base import ROOT, SUCCESS, TSTOP, StepResult
+from .base import ROOT, SUCCESS, TSTOP, Integrator, StepResult
 
-__all__ = ["ModeSolver", "StepResult", "SUCCESS", "TSTOP", "ROOT", "explain"]
+__all__ = [
+    "IDAIntegrator",
+    "ModeSolver",
+    "SensitivitySolver",
+    "IDAVariational",
+    "explain",
+    "MAX_SHARED_SOLVERS",
+]
 
 UNKNOWN_FLAG = -99
+
+#: IDA solvers kept per compiled system (by mode, settings and first step).
+MAX_SHARED_SOLVERS = 64
 
 
 def _ida(resfn, opts: dict):
@@ -227,7 +239,7 @@ class ModeSolver:
         r, bad = _call(self._ida, float(t), "normal", None)
         self._clear_events()
         if bad is not None or r.status < 0:
-            raise RuntimeError(f"IDA could not interpolate at t={t!r}: {bad[1] if bad else r.message}")
+            raise IntegratorError(f"IDA could not interpolate at t={t!r}: {bad[1] if bad else r.message}")
         return np.array(r.y), np.array(r.yp)
 
 
@@ -371,7 +383,12 @@ class SensitivitySolver:
 
         ``budget`` (shared by the segments of one variational run) is charged
         with the residual evaluations and checked after every call into IDA
-        (:class:`hybrid.core.budget.BudgetExceeded`).
+        (:class:`hybrid.core.errors.BudgetExceeded`).
+
+        Raises
+        ------
+        hybrid.core.errors.IntegratorError
+            IDA failed (its flag explained).
         """
         mode, n, ns = self.mode, self.n, self.ns
         yp0 = mode.derivatives(t0, y0)
@@ -390,7 +407,7 @@ class SensitivitySolver:
         while True:
             r, bad = _call(self._ida, float(t1), "normal", float(t1))
             if bad is not None:
-                raise RuntimeError(f"IDA failed{where} near t={t!r}: {explain(*bad)}")
+                raise IntegratorError(f"IDA failed{where} near t={t!r}: {explain(*bad)}")
             nfev = int(r.nfev)  # since init_step: the increment of this call is charged
             self.nfev += nfev - self._nfev_seen
             if budget is not None:
@@ -406,8 +423,112 @@ class SensitivitySolver:
                     t = float(r.t)
                     continue
                 msg = str(r.message) + (f" {_NOTES.text}" if _NOTES.text else "")
-                raise RuntimeError(f"IDA failed{where} at t={r.t!r}: {explain(int(r.status), msg)}")
+                raise IntegratorError(f"IDA failed{where} at t={r.t!r}: {explain(int(r.status), msg)}")
             z = np.array(r.y)
             if float(r.t) >= t1 or r.status in (SUCCESS, TSTOP):
                 return z[:n], z[n:].reshape((ns, ns), order="F")
             t = float(r.t)
+
+
+class IDAVariational:
+    """IDA's variational solvers of one compiled system's modes (one :class:`SensitivitySolver`
+    per mode, built on first use; see :meth:`IDAIntegrator.variational`)."""
+
+    def __init__(self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float):
+        self.cs, self.s, self.options, self.max_step = cs, s, options, max_step
+        self.nb = len(cs.system.variable_names)
+        self._solvers: dict[int, SensitivitySolver] = {}
+
+    @property
+    def nfev(self) -> int:
+        """Residual evaluations of every solver so far."""
+        return sum(sv.nfev for sv in self._solvers.values())
+
+    def solver(self, m: int, extend: np.ndarray | None = None) -> SensitivitySolver:
+        """Mode ``m``'s solver (the free parameters are part of its state: ``extend`` is not needed)."""
+        sv = self._solvers.get(m)
+        if sv is None:
+            o = self.options
+            n = self.cs.modes[m].n
+            atol = np.array(o.atol_vector(self.cs.names[: self.nb]) + [o.atol_default] * (n - self.nb))
+            sv = self._solvers[m] = SensitivitySolver(
+                self.cs.modes[m],
+                self.s,
+                rtol=o.rtol,
+                atol=atol,
+                atol_sens=o.rtol,
+                max_step=self.max_step,
+                max_num_steps=min(o.max_num_steps, o.max_steps),
+            )
+            sv.period = self.cs.period
+        return sv
+
+
+class IDAIntegrator(Integrator):
+    """SUNDIALS IDA: any model, to the tolerances of :class:`hybrid.SolverOptions`."""
+
+    name = "ida"
+    exact = False
+    needs_derivatives = True
+    resolves_slaves = True
+    runtime_parameters = False
+    broyden = True
+    coarse_stage = True
+    switch_time_newton = False
+
+    def noise_rtol(self, options: SolverOptions) -> float:
+        """``options.rtol``: IDA controls each step's error relative to the state."""
+        return options.rtol
+
+    def mode_solver(
+        self,
+        cs: CompiledSystem,
+        mode: int,
+        options: SolverOptions,
+        *,
+        atol: np.ndarray,
+        max_step: float,
+        first_step: float = 0.0,
+    ) -> ModeSolver:
+        """An IDA :class:`ModeSolver` of the mode, kept on ``cs`` per mode and settings and reused
+        by later runs (building one costs about 2 ms; at most :data:`MAX_SHARED_SOLVERS` kept)."""
+        cm = cs.modes[mode]
+        # Slave variables are re-solved at every sample and switch; in IDA's error test their
+        # absolute tolerance is floored at rtol: a far tighter one on a slave variable crossing
+        # zero makes IDA stall in step-size cycles (tests/hybrid: nonlinear_dae).
+        atol = np.array(atol, dtype=float)
+        atol[cm.alg_idx] = np.maximum(atol[cm.alg_idx], options.rtol)
+        max_num_steps = min(options.max_num_steps, options.max_steps)
+        shared = cs.solvers
+        skey = (mode, first_step, options.rtol, atol.tobytes(), max_step, max_num_steps)
+        s = shared.get(skey)
+        if s is None:
+            if len(shared) >= MAX_SHARED_SOLVERS:
+                shared.clear()
+            s = shared[skey] = ModeSolver(
+                cm,
+                rtol=options.rtol,
+                atol=atol,
+                max_step=max_step,
+                max_num_steps=max_num_steps,
+                first_step=first_step,
+            )
+        return s
+
+    def guard_series(self, cs: CompiledSystem, mode: int, t: float, y: np.ndarray, order: int):
+        """The guards' series from the flow's Taylor series of the mode's equations (computed once)."""
+        cm = cs.modes[mode]
+        flow: list[np.ndarray] = []
+
+        def series(k: int) -> np.ndarray:
+            if not flow:
+                flow.append(cm.taylor(t, y, order))
+            return cm.guard_series(k, t, y, order, flow[0])
+
+        return series
+
+    def variational(
+        self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float
+    ) -> IDAVariational:
+        """IDA on each mode's DAE with its variational equations (:class:`SensitivitySolver`)."""
+        return IDAVariational(cs, s, options, max_step)

@@ -16,7 +16,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from ..core.errors import ExpressionError
+from ..core.errors import ExpressionError, InputError
 from .expr import (
     _FUNC_FLOAT,
     Expr,
@@ -176,7 +176,7 @@ def compile_many(
         refs[node] = ast.Name(local, ast.Load())
     if scalar:
         if len(exprs) != 1:
-            raise ValueError("scalar=True needs exactly one expression")
+            raise InputError("scalar=True needs exactly one expression")
         body.append(ast.Return(ref(exprs[0])))
     else:
         body.append(ast.Return(ast.Tuple([ref(e) for e in exprs], ast.Load())))

@@ -21,13 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.errors import AlgebraicSolveError
+from ..core.errors import AlgebraicSolveError, InputError
 from .codegen import compile_many, runtime_namespace, set_runtime
 from .expr import Expr, diff, free_symbols, neg, num, sub, substitute, sym
 from .system import HybridSystem
 from .taylor import taylor_eval, taylor_eval_many
 
-__all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "CompiledPool", "lend", "AlgebraicSolveError"]
+__all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "CompiledPool", "lend"]
 
 #: Prefix of the generated residual's slots for ``y'`` (not a valid model name: no clash).
 _YP = " yp"
@@ -388,13 +388,17 @@ class CompiledSystem:
         #: What higher layers derive from this compiled system at its current parameter values
         #: (e.g. the exact integrator's flows), by key; cleared when :meth:`set_runtime` changes them.
         self.derived: dict[str, object] = {}
+        #: Integrator objects built for this compiled system (e.g. IDA's per mode and settings),
+        #: reused by later runs; bounded by the integrator that keeps them. They read the run-time
+        #: parameters at each call, so they stay valid when :meth:`set_runtime` changes them.
+        self.solvers: dict[object, object] = {}
 
     def set_runtime(self, params: Mapping[str, float]) -> None:
         """New parameter values that differ from the compiled ones only in ``runtime`` parameters."""
         new = self.system.parameter_values({**self.params, **params})
         changed = [k for k in new if new[k] != self.params[k] and k not in self.runtime]
         if changed:
-            raise ValueError(f"parameter `{changed[0]}` is compiled in as a constant: compile again")
+            raise InputError(f"parameter `{changed[0]}` is compiled in as a constant: compile again")
         self.params = new
         set_runtime(self._ns, {p: new[p] for p in self.runtime})
         for m in self.modes:
@@ -412,7 +416,7 @@ class CompiledSystem:
 
     def mode_id(self, name: str) -> int:
         if name not in self.mode_index:
-            raise ValueError(
+            raise InputError(
                 f"model `{self.system.name}` has no mode `{name}`; modes: {', '.join(self.mode_index)}"
             )
         return self.mode_index[name]

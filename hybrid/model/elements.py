@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from ..core.errors import ModelError
+from ..core.errors import InputError, ModelError
 
 __all__ = ["Mode", "Parameter", "Transition", "Variable"]
 
@@ -88,19 +88,19 @@ class Parameter:
         """Return ``value`` as a float, or raise a ValueError naming the parameter."""
         what = f"parameter `{self.name}`" + (f" ({self.description})" if self.description else "")
         if isinstance(value, bool):
-            raise ValueError(f"{what} must be a real number, got {value!r}")
+            raise InputError(f"{what} must be a real number, got {value!r}")
         if not isinstance(value, int | float):
             try:
                 value = float(value)  # numpy scalars, strings of numbers from a CLI
             except (TypeError, ValueError):
-                raise ValueError(f"{what} must be a real number, got {value!r}") from None
+                raise InputError(f"{what} must be a real number, got {value!r}") from None
         value = float(value)
         if not math.isfinite(value):
-            raise ValueError(f"{what} must be finite, got {value!r}")
+            raise InputError(f"{what} must be finite, got {value!r}")
         if self.domain == "positive" and not value > 0:
-            raise ValueError(f"{what} must be > 0, got {value!r}")
+            raise InputError(f"{what} must be > 0, got {value!r}")
         if self.domain == "nonnegative" and not value >= 0:
-            raise ValueError(f"{what} must be >= 0, got {value!r}")
+            raise InputError(f"{what} must be >= 0, got {value!r}")
         return value
 
 

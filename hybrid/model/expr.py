@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 
 from ..core.errors import ExpressionError
 
-__all__ = ["FUNCTIONS", "Expr", "ExpressionError", "parse", "diff", "substitute", "free_symbols"]
+__all__ = ["FUNCTIONS", "Expr", "parse", "diff", "substitute", "free_symbols"]
 
 MAX_EXPRESSION_LENGTH = 10_000
 

@@ -53,6 +53,7 @@ import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from ..core.errors import ModelError
 from .elements import Mode, Transition, Variable
 from .expr import (
     ONE,
@@ -70,7 +71,7 @@ from .expr import (
     sym,
     to_string,
 )
-from .system import HybridSystem, ModelError
+from .system import HybridSystem
 
 __all__ = ["filippov_system", "Surface", "surfaces"]
 

@@ -10,6 +10,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..core.errors import InputError
 from .compiled import CompiledSystem
 from .system import HybridSystem
 
@@ -52,7 +53,7 @@ def reduced_jacobian(
     """
     mode = mode if mode is not None else system.initial_mode
     if mode is None:
-        raise ValueError(f"model `{system.name}` declares no initial mode: name the mode to linearise")
+        raise InputError(f"model `{system.name}` declares no initial mode: name the mode to linearise")
     cs = CompiledSystem(system, params)
     cm = cs.modes[cs.mode_id(mode)]
     y = np.zeros(cm.n) if y is None else np.asarray(y, dtype=float)

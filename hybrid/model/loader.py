@@ -60,9 +60,10 @@ from collections.abc import Mapping
 from importlib.metadata import entry_points
 from pathlib import Path
 
+from ..core.errors import ModelError
 from .elements import Mode, Parameter, Transition, Variable
 from .filippov import filippov_system
-from .system import HybridSystem, ModelError
+from .system import HybridSystem
 
 __all__ = [
     "load_system",

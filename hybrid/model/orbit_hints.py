@@ -65,9 +65,9 @@ def period_guess(system, params: Mapping[str, float]) -> float | None:
     try:
         value = float(compile_scalar(e, {}, params)(()))
     except (ArithmeticError, ValueError) as exc:
-        raise ValueError(f"model `{system.name}`: `period_guess` cannot be evaluated: {exc}") from None
+        raise ModelError(f"model `{system.name}`: `period_guess` cannot be evaluated: {exc}") from None
     if not (math.isfinite(value) and value > 0):
-        raise ValueError(
+        raise ModelError(
             f"model `{system.name}`: `period_guess` evaluates to {value!r}; it must be finite and > 0"
         )
     return value

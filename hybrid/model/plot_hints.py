@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from .expr import ExpressionError, free_symbols, parse
+from ..core.errors import ExpressionError
+from .expr import free_symbols, parse
 from .system import HybridSystem
 
 __all__ = ["plot_hints", "derived_plot_hints"]

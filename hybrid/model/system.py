@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from ..core.cache import DerivedCache
-from ..core.errors import ModelError
+from ..core.errors import ExpressionError, InputError, InputTypeError, ModelError
 from .codegen import compile_scalar
 from .elements import (
     _MODE_NAME,
@@ -48,7 +48,6 @@ from .elements import (
 )
 from .expr import (
     Expr,
-    ExpressionError,
     count_nodes,
     free_symbols,
     parse,
@@ -58,7 +57,7 @@ from .expr import (
 )
 from .orbit_hints import validate_hints
 
-__all__ = ["HybridSystem", "ModelError"]
+__all__ = ["HybridSystem"]
 
 
 #: Size limits of a model (a model file is untrusted input: every limit has a clear error).
@@ -89,7 +88,7 @@ def _shared_system(key: int) -> HybridSystem:
     try:
         return _SHARED[key]
     except KeyError:
-        raise TypeError("a HybridSystem is unpickled only in the process it was shared from") from None
+        raise InputTypeError("a HybridSystem is unpickled only in the process it was shared from") from None
 
 
 @dataclass(frozen=True)
@@ -598,7 +597,7 @@ class HybridSystem:
         for m in self.modes:
             if m.name == name:
                 return m
-        raise ValueError(f"model `{self.name}` has no mode `{name}`; modes: {', '.join(self.mode_names)}")
+        raise InputError(f"model `{self.name}` has no mode `{name}`; modes: {', '.join(self.mode_names)}")
 
     def algebraic_variables(self, mode: str) -> tuple[str, ...]:
         """Names of the slave (algebraic) variables of ``mode``."""
@@ -633,23 +632,23 @@ class HybridSystem:
         if preset is not None:
             if preset not in self.presets:
                 have = ", ".join(self.presets) or "none"
-                raise ValueError(f"model `{self.name}` has no preset `{preset}`; presets: {have}")
+                raise InputError(f"model `{self.name}` has no preset `{preset}`; presets: {have}")
             out.update(self.presets[preset])
         if values:
             for k in values:
                 if k not in self.parameter_names:
-                    raise ValueError(
+                    raise InputError(
                         f"model `{self.name}` has no parameter `{k}`; parameters: {', '.join(self.parameter_names)}"
                     )
             out.update(values)
         missing = [p for p in self.parameter_names if p not in out]
         if missing:
-            raise ValueError(f"model `{self.name}`: missing value for parameter(s) {', '.join(missing)}")
+            raise InputError(f"model `{self.name}`: missing value for parameter(s) {', '.join(missing)}")
         return {p.name: p.check(out[p.name]) for p in self.parameters}
 
     def __reduce__(self):
         if _SHARED.get(id(self)) is not self:
-            raise TypeError(
+            raise InputTypeError(
                 f"model `{self.name}`: a HybridSystem is not pickled by value (it holds compiled code); "
                 "it is pickled by reference only between processes forked after hybrid.model.system.shared(system)"
             )
@@ -667,11 +666,11 @@ class HybridSystem:
         try:
             value = float(compile_scalar(pe, {}, params)(()))
         except (ArithmeticError, ValueError) as exc:
-            raise ValueError(
+            raise ModelError(
                 f"model `{self.name}`: forcing period {self.period!r} cannot be evaluated: {exc}"
             ) from None
         if not (math.isfinite(value) and value > 0):
-            raise ValueError(
+            raise ModelError(
                 f"model `{self.name}`: forcing period {self.period!r} evaluates to {value!r}; it must be finite and > 0"
             )
         return value

@@ -29,7 +29,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ParameterOutOfDomain
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import initial_state
 from ..model.orbit_hints import period_guess
@@ -56,12 +56,12 @@ MAX_BACKTRACKS = 10
 def resolve_phase(system: HybridSystem, phase: str) -> str:
     """``"anchor"`` or a transition name (``"auto"``: the model's ``[orbit] section``, else the anchor)."""
     if not isinstance(phase, str):
-        raise TypeError(f"`phase` must be a string, got {type(phase).__name__}")
+        raise InputTypeError(f"`phase` must be a string, got {type(phase).__name__}")
     if phase == "auto":
         return system.parsed.autonomous["section"] or "anchor"
     names = [tr.name for tr in system.transitions]
     if phase != "anchor" and phase not in names:
-        raise ValueError(
+        raise InputError(
             f"`phase` must be 'auto', 'anchor' or a transition of model `{system.name}` "
             f"({', '.join(names)}), got {phase!r}"
         )
@@ -72,13 +72,13 @@ def time_scale(system: HybridSystem, params: Mapping[str, float], period: float 
     """The period guess [s]: ``period`` if given, else the model's ``[orbit] period_guess``."""
     if period is not None:
         if not (isinstance(period, int | float) and not isinstance(period, bool) and math.isfinite(period)):
-            raise ValueError(f"`period` must be a finite number > 0, got {period!r}")
+            raise InputError(f"`period` must be a finite number > 0, got {period!r}")
         if period <= 0:
-            raise ValueError(f"`period` must be a finite number > 0, got {period!r}")
+            raise InputError(f"`period` must be a finite number > 0, got {period!r}")
         return float(period)
     T = period_guess(system, system.parameter_values(params))
     if T is None:
-        raise ValueError(
+        raise InputError(
             f"model `{system.name}` is autonomous (no forcing period) and declares no `[orbit] period_guess`: "
             "give `period` (a guess of the orbit's period, s)"
         )
@@ -174,12 +174,12 @@ class AutonomousSolver:
                 try:
                     y_new = fm.mode(mode).solve_algebraic(0.0, y_new)
                     if not T_new > 0:
-                        raise RuntimeError("negative period")
+                        raise ParameterOutOfDomain("negative period")
                     ev_new = self.evaluate(y_new, mode, T_new)
                     if float(np.linalg.norm(self.residual(ev_new, y_new, d, anchor))) < (1 - 1e-4 * lam) * r0:
                         break
-                except (RuntimeError, ZeroDivisionError):
-                    pass
+                except (RuntimeError, GrazingSwitchError, ZeroDivisionError):
+                    pass  # a failed run, a grazing switch, the model's equations dividing by zero
                 lam *= 0.5
             else:
                 return (
@@ -276,7 +276,7 @@ def autonomous_orbit(
     phase = resolve_phase(system, phase)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
-        raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
+        raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     params = system.parameter_values(params)
     Tg = time_scale(system, params, period)
@@ -294,8 +294,12 @@ def autonomous_orbit(
         return finish(solver, y, mode, T, ev, it, res, samples_per_period)
     except BudgetExceeded as exc:
         return failed(fm, y, mode0, Tg, 0, str(exc))
-    except ZeroDivisionError as exc:
+    except GrazingSwitchError as exc:
         return failed(fm, y, mode0, Tg, 0, f"{exc}; at a grazing, try a nearby parameter value")
+    except ZeroDivisionError as exc:  # the model's equations (e.g. a reset's derivative): not a grazing
+        return failed(
+            fm, y, mode0, Tg, 0, f"evaluating the model's equations failed: ZeroDivisionError: {exc}"
+        )
     except RuntimeError as exc:
         return failed(fm, y, mode0, Tg, 0, str(exc))
 

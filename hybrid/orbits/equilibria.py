@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.errors import ConvergenceError, InputError, InputTypeError, ModelError
 from ..engine.simulate import initial_state
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
@@ -156,12 +157,12 @@ def equilibrium(
     """
 
     if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+        raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
     system.mode(mode)
     params = system.parameter_values(params)
     cs = CompiledSystem(system, params)
     if cs.depends_on_time():
-        raise ValueError(f"model `{system.name}` depends on t: equilibria need an autonomous model")
+        raise ModelError(f"model `{system.name}` depends on t: equilibria need an autonomous model")
     cm = cs.modes[cs.mode_id(mode)]
     y = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode)
     return _solve(system, params, cm, y, tol, max_iter)
@@ -252,7 +253,7 @@ def locate_hopf(
     def g(p: float) -> float:
         eq = equilibrium(system, {**params, parameter: p}, mode, guess[0])
         if not eq.converged:
-            raise RuntimeError(f"no equilibrium at {parameter} = {p!r}: {eq.message}")
+            raise ConvergenceError(f"no equilibrium at {parameter} = {p!r}: {eq.message}")
         guess[0] = eq.x
         cache[p] = eq
         return float(eq.eigenvalues[0].real)
@@ -260,7 +261,7 @@ def locate_hopf(
     a, b = (float(v) for v in bracket)
     ga, gb = g(a), g(b)
     if ga * gb > 0:
-        raise ValueError(
+        raise InputError(
             f"the largest real part of the eigenvalues does not change sign over {parameter} in [{a}, {b}] "
             f"({ga:.3g}, {gb:.3g})"
         )

@@ -22,12 +22,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError, ModelError, SimulationError
 from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
 from ..engine.variational import Sensitivity, guard_index, saltation
-from ..integrators.affine import exact_flows
+from ..integrators.registry import integrator
 from ..model.compiled import CompiledSystem, lend
 from ..model.system import HybridSystem
 
@@ -102,15 +102,16 @@ class FlowMap:
         self.free = free
         self.params = system.parameter_values(params)
         self.options = replace(options, max_step=options.max_step or float(time_scale) / 16.0)
-        if options.integrator == "exact":
+        self.integrator = integrator(options.integrator)
+        if self.integrator.runtime_parameters:
             self.cs, self._release = lend(system, self.params, self, every_parameter=True)
-            exact_flows(self.cs)  # refused before any run if not affine
         elif free:
             self.cs = CompiledSystem(system, self.params, runtime=(free,))  # its own: free read at run time
         else:
             self.cs, self._release = lend(system, self.params, self)
+        self.integrator.check(self.cs)  # refused before any run (e.g. not affine)
         if self.cs.depends_on_time():
-            raise ValueError(
+            raise ModelError(
                 f"model `{system.name}` depends on t but declares no forcing period: an autonomous "
                 "periodic orbit needs a model whose equations and guards do not contain t"
             )
@@ -144,7 +145,7 @@ class FlowMap:
 
         Raises
         ------
-        hybrid.core.budget.BudgetExceeded
+        hybrid.core.errors.BudgetExceeded
             The run exhausted its step or time budget.
         """
         y = np.array(y0, dtype=float)
@@ -165,7 +166,7 @@ class FlowMap:
         """The time-``T`` map from ``(y0, mode0)``; with ``derivatives`` its fundamental matrix."""
         tr = self.run(y0, mode0, T)
         if not tr.success:
-            raise RuntimeError(f"run failed: {tr.message}")
+            raise SimulationError(f"run failed: {tr.message}")
         Y = self._fundamental(tr.y[0], mode0, T, tr.events) if derivatives else None
         f = self.field(tr.mode_final, tr.y_final)
         return Evaluation(tr, tr.y_final.copy(), tr.mode_final, float(T), Y, Y, f, list(tr.events))
@@ -179,16 +180,18 @@ class FlowMap:
 
         Raises
         ------
-        RuntimeError
+        hybrid.core.errors.SimulationError
             The run failed or did not reach the section by ``t_max``.
+        hybrid.core.errors.GrazingSwitchError
+            (With ``derivatives``) the section's guard has a zero rate along the flow where it fires.
         """
         tr = self.run(y0, mode0, t_max)
         if not tr.success:
-            raise RuntimeError(f"run failed: {tr.message}")
+            raise SimulationError(f"run failed: {tr.message}")
         events = list(tr.events)
         hit = next((i for i, e in enumerate(events) if e.guard == section and e.t > 0.0), None)
         if hit is None:
-            raise RuntimeError(
+            raise SimulationError(
                 f"the run did not return to the section `{section}` within {t_max:.6g} s "
                 f"(modes visited: {', '.join(dict.fromkeys([mode0, *(e.target for e in events)]))})"
             )
@@ -204,7 +207,7 @@ class FlowMap:
         if derivatives:
             y_start = self.mode(mode0).solve_algebraic(0.0, np.asarray(y0, dtype=float))
             Phi = self._fundamental(y_start, mode0, tau, events[:hit])
-            Y = saltation(self.ext, chain, self.extend, self.sens.s, resets=self.sens._resets) @ Phi
+            Y = saltation(self.ext, chain, self.extend, self.sens.s, resets=self.sens.resets) @ Phi
             Jr = Y + np.outer(self.on_s(f_plus), self._dtau(chain[0], Phi))
         return Evaluation(tr, end, end_mode, float(tau), Jr, Y, f_plus, events[: last + 1])
 
@@ -219,7 +222,7 @@ class FlowMap:
         h_y, h_t = src.guard_gradient(guard_index(src, ev.guard), ev.t, y_minus)
         denom = h_t + h_y @ src.derivatives(ev.t, y_minus)
         if denom == 0.0:
-            raise ZeroDivisionError(
+            raise GrazingSwitchError(
                 f"grazing return: the guard of `{ev.guard}` has a zero rate along the flow where it fires"
             )
         return -(h_y[self.sens.s] @ Phi) / denom

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..core.errors import GrazingSwitchError
 from ..engine.trajectory import DeferredTrajectory, Trajectory
 from ..integrators.affine import exact_flows
 from .orbit import (
@@ -87,7 +88,8 @@ def newton(
         stage = ["coarse"]
         try:
             out = _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage)
-        except (RuntimeError, ZeroDivisionError):  # a failed run or monodromy (a grazing switch)
+        except (RuntimeError, GrazingSwitchError, ZeroDivisionError):
+            # a failed run or monodromy (IDA, a grazing switch, the model's equations dividing by zero)
             if stage[0] != "coarse":
                 raise  # at the requested tolerances: the caller reports it
             out = None
@@ -129,9 +131,10 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     stalled = False  # the exact Newton step vanishes while the residual does not
     J_here = False  # J is the exact one at the current iterate
     M_y = None  # the monodromy at y at the requested tolerances, if made (the result's, if y is)
+    integ = shooter.integrator
     # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
     # and its exact Newton steps reach rounding.
-    broyden = BROYDEN and shooter.options.integrator != "exact"
+    broyden = BROYDEN and integ.broyden
     # Relative accuracy of one run of the map (the exact integrator's is rounding).
     noise_rtol = shooter.noise_rtol
     settle = False  # the residual met the tolerance and a further correction found no decrease
@@ -159,7 +162,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             continue
         if (
             not seq_tried
-            and noise_rtol < 1e-14
+            and integ.switch_time_newton
             and res_norm > tol
             and it < max_iter
             and tr.mode_final == mode0
@@ -174,7 +177,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 continue
         g = shooter.gauge(y)
         gauge_bad = family and g is not None and abs(g[0]) > tol * scale
-        if res_norm <= tol and not gauge_bad and J is None and noise_rtol < 1e-14 and 0 < it < max_iter:
+        if res_norm <= tol and not gauge_bad and J is None and integ.exact and 0 < it < max_iter:
             # the exact integrator: judge the correction with the exact Jacobian here (cheap)
             M_y = shooter.monodromy(tr)
             J, J_here = M_y[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
@@ -183,7 +186,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             and not gauge_bad
             and not settle
             and M_y is None
-            and noise_rtol >= 1e-14
+            and not integ.exact
             and it < max_iter
             and tr.mode_final == mode0
         ):
@@ -233,7 +236,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 try:
                     M = coarse.monodromy(pending)
                     J = M[np.ix_(nw.pos, nw.pos)] - np.eye(d.size)
-                except (RuntimeError, ZeroDivisionError):
+                except (RuntimeError, GrazingSwitchError, ZeroDivisionError):
                     pass  # the requested map's own, below
                 pending = None
             exact = J is None or J_here  # (not the coarse one: without descent it is made exact)
@@ -394,7 +397,7 @@ def coarse_shooter(shooter: Shooter, tol: float) -> Shooter | None:
     exact integrator, a requested rtol already near it, or a tolerance it cannot approach)."""
     o = shooter.options
     rc = COARSE_RTOL
-    if o.integrator == "exact" or rc < 100.0 * o.rtol or COARSE_SWITCH * rc <= 10.0 * tol:
+    if not shooter.integrator.coarse_stage or rc < 100.0 * o.rtol or COARSE_SWITCH * rc <= 10.0 * tol:
         return None
     f = rc / o.rtol
     atol = {k: v * f for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol * f

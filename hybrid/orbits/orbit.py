@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.balance import balance
+from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.options import SolverOptions
 from ..core.scalar import bounded_minimum
 from ..engine.trajectory import Trajectory, sampled_trajectory
-from ..integrators.affine import exact_flows
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 
@@ -485,24 +485,24 @@ def check_orbit_inputs(
     """Refuse bad arguments of :func:`hybrid.periodic_orbit` (``forced``) or
     :func:`hybrid.autonomous_orbit` before any integration (``TypeError``/``ValueError``)."""
     if not isinstance(system, HybridSystem):
-        raise TypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+        raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
     if forced and system.period is None:
-        raise ValueError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
+        raise ModelError(f"model `{system.name}` declares no forcing `period`: periodic orbits need one")
     if not forced and system.period is not None:
-        raise ValueError(
+        raise ModelError(
             f"model `{system.name}` is periodically forced (period {system.period!r}): use hybrid.periodic_orbit"
         )
     if not isinstance(options, SolverOptions):
-        raise TypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
+        raise InputTypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
     if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
-        raise ValueError(f"`tol` must be a number > 0, got {tol!r}")
+        raise InputError(f"`tol` must be a number > 0, got {tol!r}")
     # a transient is where an autonomous orbit's section and period come from: at least one
     for name, v, lo in (
         ("max_iter", max_iter, 1),
         ("transient_periods", transient_periods, 0 if forced else 1),
     ):
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise ValueError(f"`{name}` must be an integer >= {lo}, got {v!r}")
+            raise InputError(f"`{name}` must be an integer >= {lo}, got {v!r}")
 
 
 def failed_orbit(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
@@ -571,7 +571,7 @@ def finish_orbit(
     mult, kinds, verdict = _classify(mult, n_struct, family, mtol)
     # Amplitudes (variables and outputs): extrema located on the flow, not read from samples.
     amp, hpp = {}, {}
-    ext = _Extrema(shooter.cs, tr, exact_flows(shooter.cs) if shooter.options.integrator == "exact" else None)
+    ext = _Extrema(shooter.cs, tr, shooter.integrator.exact_flows(shooter.cs))
     series = {n: tr.y[:, i] for i, n in enumerate(names) if n not in sys_.quadratures}
     series.update({o: tr.outputs[o] for o in sys_.outputs})
     for n, x in series.items():
@@ -614,7 +614,7 @@ def finish_orbit(
     elif err > 1e-6:
         msg += f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about " + (
             f"cond x rtol = {err:.2g} (relative); tighten rtol for more; "
-            if shooter.options.integrator != "exact"
+            if not shooter.integrator.exact
             else f"cond x rounding = {err:.2g} (relative); "
         )
     conv = res_norm <= tol and not note

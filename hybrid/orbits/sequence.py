@@ -37,9 +37,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..core.errors import NotAffineError
 from ..engine.variational import ResetJacobians
 from ..integrators.affine import AffineMode, affine_coefficients
-from ..integrators.exact import NotAffineError
 from ..model.expr import Expr
 
 __all__ = ["Switch", "sequence_events", "solve_sequence"]

@@ -13,13 +13,12 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
-from ..core.errors import ParameterOutOfDomain
+from ..core.errors import BudgetExceeded, ModelError, ParameterOutOfDomain
 from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
 from ..engine.variational import Sensitivity
-from ..integrators.affine import exact_flows
+from ..integrators.registry import integrator
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledSystem, lend
 from ..model.expr import diff
@@ -39,6 +38,11 @@ class Shooter:
     options : SolverOptions
     free : str, optional
         A parameter to differentiate the map by (for continuation).
+
+    Attributes
+    ----------
+    integrator : hybrid.integrators.base.Integrator
+        The integrator of ``options.integrator``.
     """
 
     def __init__(
@@ -50,11 +54,11 @@ class Shooter:
     ):
         self.system = system
         self.options = options
+        self.integrator = integrator(options.integrator)
         self.free = free
         self.names = system.variable_names
         self.set_params(params)
-        if options.integrator == "exact":
-            exact_flows(self.cs)  # refused before any run if not affine (NotAffineError)
+        self.integrator.check(self.cs)  # refused before any run (e.g. not affine: NotAffineError)
         # Without a free parameter the variational runs use the same compiled system.
         self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
         T = self.period
@@ -84,7 +88,7 @@ class Shooter:
             self.cs = self._compiled()
         self.period = self.cs.period
         if self.period is None:
-            raise ValueError(
+            raise ModelError(
                 f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
             )
         if self.free is not None:
@@ -97,7 +101,7 @@ class Shooter:
         release = getattr(self, "_release", None)
         if release is not None:
             release()
-        if self.options.integrator == "exact":
+        if self.integrator.runtime_parameters:
             # every parameter read at call time: the exact flows come from the affine analysis
             cs, self._release = lend(self.system, self.params, self, every_parameter=True)
         elif self.free is not None:
@@ -110,7 +114,7 @@ class Shooter:
     @property
     def noise_rtol(self) -> float:
         """Relative accuracy of one run of the map: ``rtol`` (IDA), rounding (the exact integrator)."""
-        return self.options.rtol if self.options.integrator != "exact" else 1e-15
+        return self.integrator.noise_rtol(self.options)
 
     def dT(self) -> float:
         """d(period)/d(free parameter)."""
@@ -124,7 +128,7 @@ class Shooter:
         sampled run (about twice as costly) is made only if its samples are used, e.g. for an
         accepted orbit, not at every iteration of a corrector.
 
-        A run that exhausts its budget raises :class:`hybrid.core.budget.BudgetExceeded`.
+        A run that exhausts its budget raises :class:`hybrid.core.errors.BudgetExceeded`.
         """
         tr = self._run(y0, mode0, t0, None)
         if samples and tr.success:

@@ -32,7 +32,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.budget import BudgetExceeded
+from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError
 from ..core.options import SolverOptions, check_samples
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
@@ -92,7 +92,7 @@ def shoot_orbit(
     check_samples(samples_per_period)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
-        raise ValueError(f"`mode0` is required: model `{system.name}` declares no initial mode")
+        raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     shooter = Shooter(system, params, options)
     if x0 is None:
@@ -100,7 +100,7 @@ def shoot_orbit(
     y = initial_state(system, x0, mode0)
     start = 0.0 if t0 is None else float(t0)
     if not math.isfinite(start):
-        raise ValueError(f"`t0` must be finite, got {t0!r}")
+        raise InputError(f"`t0` must be finite, got {t0!r}")
     check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
     check_initial_state(shooter.cs, mode0, start, y)
     return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
@@ -118,15 +118,17 @@ def solve_orbit(
 ) -> PeriodicOrbit:
     """Newton shooting from a guess (see :func:`periodic_orbit`).
 
-    A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`)
-    or a grazing switch comes back as ``converged=False`` with the reason.
+    A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`),
+    a grazing switch, a division by zero in the model's equations where only the monodromy
+    evaluates them, or IDA failing in the variational equations comes back as ``converged=False``
+    with the reason.
     """
     at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
     try:
         return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
     except BudgetExceeded as exc:
         return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc))
-    except ZeroDivisionError as exc:  # a grazing switch: no saltation matrix, no monodromy
+    except GrazingSwitchError as exc:  # no saltation matrix, no monodromy
         return failed_orbit(
             shooter,
             at[0],
@@ -137,7 +139,10 @@ def solve_orbit(
             f"{exc}; write the guard to cross zero at a nonzero rate "
             "(e.g. `v` rather than `sign(v)`), or, at a true grazing, try a nearby parameter value",
         )
-    except RuntimeError as exc:  # IDA failed in the variational equations
+    except ZeroDivisionError as exc:  # the model's equations (e.g. a reset's derivative): not a grazing
+        why = f"evaluating the model's equations failed: ZeroDivisionError: {exc}"
+        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, why)
+    except RuntimeError as exc:  # IDA failed in the variational equations (IntegratorError)
         return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}")
 
 

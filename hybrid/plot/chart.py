@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.errors import InputError
 from ..engine.io import to_json, write_rows_csv
 from ..studies.sweep import SweepResult
 from .trajectory import _new_figure
@@ -67,11 +68,11 @@ def _order(res: SweepResult, x: str | None) -> tuple[int, int | None]:
     """Indices of the horizontal axis and the other one (None for a one-parameter sweep)."""
     names = [a.name for a in res.axes]
     if len(names) > 2:
-        raise ValueError(f"charts draw sweeps of one or two parameters; this one has {len(names)}: {names}")
+        raise InputError(f"charts draw sweeps of one or two parameters; this one has {len(names)}: {names}")
     if x is None:
         x = names[0]
     if x not in names:
-        raise ValueError(f"`--x {x}`: the sweep's parameters are {', '.join(names)}")
+        raise InputError(f"`--x {x}`: the sweep's parameters are {', '.join(names)}")
     ix = names.index(x)
     return ix, (1 - ix if len(names) == 2 else None)
 
@@ -123,7 +124,7 @@ def plot_plane(res: SweepResult, path: str | Path, x: str | None = None) -> Path
 
     ix, iy = _order(res, x)
     if iy is None:
-        raise ValueError("a plane needs a sweep of two parameters")
+        raise InputError("a plane needs a sweep of two parameters")
     ax_x, ax_y = res.axes[ix], res.axes[iy]
     X, Y = np.meshgrid(ax_x.values, ax_y.values)
     peak, code = _grid(res, ix, iy)

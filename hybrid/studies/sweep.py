@@ -42,6 +42,7 @@ import numpy as np
 from ..continuation.branch import forcing_parameter
 from ..continuation.frc import default_range, frequency_response
 from ..core.budget import time_limit
+from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.version import __version__
 from ..engine.io import to_json
@@ -102,18 +103,18 @@ class Axis:
     def __post_init__(self):
         vals = tuple(float(v) for v in self.values)
         if not vals or not all(math.isfinite(v) for v in vals):
-            raise ValueError(f"axis `{self.name}`: needs at least one finite value, got {self.values!r}")
+            raise InputError(f"axis `{self.name}`: needs at least one finite value, got {self.values!r}")
         if any(b <= a for a, b in zip(vals, vals[1:], strict=False)):
-            raise ValueError(f"axis `{self.name}`: values must increase, got {vals!r}")
+            raise InputError(f"axis `{self.name}`: values must increase, got {vals!r}")
         if self.spacing not in ("linear", "log"):
-            raise ValueError(f"axis `{self.name}`: spacing must be 'linear' or 'log', got {self.spacing!r}")
+            raise InputError(f"axis `{self.name}`: spacing must be 'linear' or 'log', got {self.spacing!r}")
         object.__setattr__(self, "values", vals)
         object.__setattr__(self, "spec", tuple(float(v) for v in self.spec))
 
 
 def _finite(name: str, what: str, v: float) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise ValueError(f"axis `{name}`: {what} must be a finite number, got {v!r}")
+        raise InputError(f"axis `{name}`: {what} must be a finite number, got {v!r}")
     return float(v)
 
 
@@ -150,12 +151,12 @@ def linear_axis(name: str, start: float, stop: float, step: float) -> Axis:
     """
     start, stop, step = (_finite(name, w, v) for w, v in (("START", start), ("STOP", stop), ("STEP", step)))
     if step <= 0:
-        raise ValueError(f"axis `{name}`: STEP must be > 0, got {step!r}")
+        raise InputError(f"axis `{name}`: STEP must be > 0, got {step!r}")
     if stop < start:
-        raise ValueError(f"axis `{name}`: needs START <= STOP, got {start!r} > {stop!r}")
+        raise InputError(f"axis `{name}`: needs START <= STOP, got {start!r} > {stop!r}")
     n = (stop - start) / step
     if n + 1 > MAX_POINTS:
-        raise ValueError(f"axis `{name}`: {math.floor(n) + 1} values, more than {MAX_POINTS}")
+        raise InputError(f"axis `{name}`: {math.floor(n) + 1} values, more than {MAX_POINTS}")
     k = round(n)
     if abs(n - k) <= 1e-9 * max(1.0, n):
         values = np.linspace(start, stop, k + 1) if k > 0 else np.array([start])
@@ -192,9 +193,9 @@ def log_axis(name: str, start: float, stop: float, num: int) -> Axis:
     """
     start, stop = _finite(name, "START", start), _finite(name, "STOP", stop)
     if isinstance(num, bool) or not isinstance(num, int | np.integer) or not 2 <= num <= MAX_POINTS:
-        raise ValueError(f"axis `{name}`: NUM must be an integer from 2 to {MAX_POINTS}, got {num!r}")
+        raise InputError(f"axis `{name}`: NUM must be an integer from 2 to {MAX_POINTS}, got {num!r}")
     if not 0 < start < stop:
-        raise ValueError(f"axis `{name}`: a log axis needs 0 < START < STOP, got {start!r}, {stop!r}")
+        raise InputError(f"axis `{name}`: a log axis needs 0 < START < STOP, got {start!r}, {stop!r}")
     values = np.geomspace(start, stop, int(num))
     values[0], values[-1] = start, stop
     return Axis(name, _tidy(values), "log", (start, stop, float(num)))
@@ -456,15 +457,15 @@ def load_sweep(folder: str | Path) -> SweepResult:
     folder = Path(folder)
     path = folder / MANIFEST
     if not path.is_file():
-        raise ValueError(
+        raise InputError(
             f"{str(folder)!r} holds no sweep: no {MANIFEST} (run `hybrid sweep ... --out` first)"
         )
     try:
         manifest = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{str(path)!r} cannot be read as a sweep manifest: {exc}") from None
+        raise InputError(f"{str(path)!r} cannot be read as a sweep manifest: {exc}") from None
     if manifest.get("layout") != LAYOUT:
-        raise ValueError(
+        raise InputError(
             f"{str(path)!r}: sweep layout {manifest.get('layout')!r}, this version reads {LAYOUT}"
         )
     res = SweepResult(folder, manifest)
@@ -485,16 +486,16 @@ def _grid_params(system: HybridSystem, params: Mapping[str, float], axes: Sequen
     """``{index: all parameter values}`` of every grid point, each checked against the model."""
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
-        raise ValueError(f"sweep: a parameter appears on two axes: {names}")
+        raise InputError(f"sweep: a parameter appears on two axes: {names}")
     for a in axes:
         if a.name not in system.parameter_names:
-            raise ValueError(
+            raise InputError(
                 f"sweep: model `{system.name}` has no parameter `{a.name}`; parameters: "
                 + ", ".join(system.parameter_names)
             )
     total = math.prod(len(a.values) for a in axes)
     if total > MAX_POINTS:
-        raise ValueError(f"sweep: the grid has {total} points, more than {MAX_POINTS}")
+        raise InputError(f"sweep: the grid has {total} points, more than {MAX_POINTS}")
     out = {}
     for index in product(*(range(len(a.values)) for a in axes)):
         values = {a.name: a.values[i] for a, i in zip(axes, index, strict=True)}
@@ -575,17 +576,17 @@ def sweep(
     """
     options = SolverOptions() if options is None else options
     if not isinstance(options, SolverOptions) or not isinstance(settings, ContinuationOptions):
-        raise TypeError("sweep: `options` must be a SolverOptions and `settings` a ContinuationOptions")
+        raise InputTypeError("sweep: `options` must be a SolverOptions and `settings` a ContinuationOptions")
     if system.period is None:
-        raise ValueError(
+        raise ModelError(
             f"sweep: model `{system.name}` declares no forcing `period`: periodic orbits need one"
         )
     if not axes:
-        raise ValueError("sweep: give at least one axis")
+        raise InputError("sweep: give at least one axis")
     if point_time_limit is not None and not (
         isinstance(point_time_limit, int | float) and math.isfinite(point_time_limit) and point_time_limit > 0
     ):
-        raise ValueError(
+        raise InputError(
             f"sweep: `point_time_limit` must be a number of seconds > 0, got {point_time_limit!r}"
         )
     params = dict(params)
@@ -593,10 +594,10 @@ def sweep(
     coords = list(plot_hints(system)["displacements"])
     if coordinate is None:
         if not coords:
-            raise ValueError(f"sweep: model `{system.name}` names no coordinate; give `coordinate`")
+            raise InputError(f"sweep: model `{system.name}` names no coordinate; give `coordinate`")
         coordinate = coords[0]
     if coordinate not in system.variable_names:
-        raise ValueError(
+        raise InputError(
             f"sweep: model `{system.name}` has no variable `{coordinate}`; variables: "
             + ", ".join(system.variable_names)
         )
@@ -605,7 +606,7 @@ def sweep(
         p_range = (min(r[0] for r in ranges), max(r[1] for r in ranges))
     lo, hi = (float(v) for v in p_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
-        raise ValueError(f"sweep: the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
+        raise InputError(f"sweep: the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
 
     data = model_data(system)
     digest = _hash(data)
@@ -636,14 +637,14 @@ def sweep(
     path = folder / MANIFEST
     if path.exists():
         if not resume:
-            raise ValueError(
+            raise InputError(
                 f"{str(folder)!r} already holds a sweep ({MANIFEST}): resume it (--resume) or choose another folder"
             )
         old = load_sweep(folder).manifest
         new = json.loads(to_json(manifest))  # as it would read back
         changed = [k for k, v in _identity(new).items() if _identity(old)[k] != v]
         if changed:
-            raise ValueError(
+            raise InputError(
                 f"cannot resume the sweep in {str(folder)!r}: its "
                 + ", ".join(f"`{k}`" for k in changed)
                 + (" differ" if len(changed) > 1 else " differs")
@@ -653,7 +654,7 @@ def sweep(
             )
         started = old.get("started")
     elif any(folder.glob("point-*.json")):
-        raise ValueError(
+        raise InputError(
             f"{str(folder)!r} holds point files but no {MANIFEST}: their grid and model are unknown; "
             "choose another folder"
         )

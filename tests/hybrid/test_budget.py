@@ -9,6 +9,7 @@ import pytest
 import hybrid.core.budget as budget_mod
 import hybrid_models
 from hybrid import (
+    BudgetExceeded,
     HybridSystem,
     Mode,
     SolverOptions,
@@ -20,7 +21,7 @@ from hybrid import (
     time_limit,
 )
 from hybrid.continuation.frc import frequency_response
-from hybrid.core.budget import Budget, BudgetExceeded
+from hybrid.core.budget import Budget
 from hybrid.engine.variational import Sensitivity
 from hybrid.model.compiled import CompiledSystem
 

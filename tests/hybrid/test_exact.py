@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
+from hybrid import HybridSystem, Mode, NotAffineError, SolverOptions, Transition, simulate
 from hybrid.integrators.affine import affine_mode, affine_system
-from hybrid.integrators.exact import ExactModeSolver, NotAffineError
-from hybrid.integrators.ida import ROOT, TSTOP
+from hybrid.integrators.base import ROOT, TSTOP
+from hybrid.integrators.exact import ExactModeSolver
 from hybrid.model.compiled import CompiledSystem, lend
 from hybrid.model.linear import reduced_jacobian
 

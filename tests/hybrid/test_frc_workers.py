@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import SolverOptions, frequency_response
+from hybrid import SolverOptions, WorkerError, frequency_response
 
 EXACT = SolverOptions(integrator="exact")
 RANGE = (0.85, 1.175)  # both resonances of the absorber: two pieces
@@ -102,7 +102,7 @@ def test_an_error_in_a_worker_is_raised_here_with_its_message(monkeypatch):
     system = hybrid_models.absorber()
     before = set(multiprocessing.active_children())
     with pytest.raises(
-        RuntimeError, match=r"the worker of piece 1 failed: ValueError: boom in the second piece"
+        WorkerError, match=r"the worker of piece 1 failed: ValueError: boom in the second piece"
     ):
         frequency_response(system, system.preset("standard"), RANGE, options=EXACT, workers=2)
     assert set(multiprocessing.active_children()) <= before
