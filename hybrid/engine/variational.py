@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.budget import Budget
+from ..core.errors import GrazingSwitchError
 from ..core.options import SolverOptions
 from ..integrators.affine import affine_flows, exact_flows
 from ..integrators.exact import ExactSensitivity, NotAffineError
@@ -158,7 +159,7 @@ def saltation(
     h_y, h_t = src.guard_gradient(guard_index(src, first.guard), t, y_minus)
     denom = h_t + h_y @ f_minus
     if denom == 0.0:
-        raise ZeroDivisionError(
+        raise GrazingSwitchError(
             f"grazing switch: the guard of `{first.guard}` at t={t!r} has a zero rate along the flow where "
             "it fires (the orbit touches it tangentially, or the guard is a step such as sign(...)), so its "
             "saltation matrix is undefined"
@@ -289,8 +290,9 @@ class Sensitivity:
         hybrid.core.budget.BudgetExceeded
             The run exhausted ``options.max_steps`` or ``max_wall_time``, or a
             :func:`hybrid.time_limit` ran out.
-        ZeroDivisionError
-            A switch is tangent to the flow (grazing): its saltation matrix is undefined.
+        hybrid.core.errors.GrazingSwitchError
+            A switch is tangent to the flow (grazing): its saltation matrix is undefined (a
+            :class:`ZeroDivisionError`).
         """
         budget = Budget(self.options, t0, t1)
         cs, s = self.cs, self.s
