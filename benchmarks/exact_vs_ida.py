@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+import hybrid
 import hybrid_models as models
 from hybrid import SolverOptions, continue_orbits, periodic_orbit
 from hybrid.continuation.frc import _cuts, default_range
@@ -48,8 +49,8 @@ def compare(system, rtol: float) -> None:
             o.x0,
             o.mode0,
             t0=o.t0,
-            transient_periods=0,
             options=SolverOptions(rtol=rtol, atol=rtol / 100),
+            settings=hybrid.ShootingOptions(transient_periods=0),
         )
         if not q.converged:
             print(f"  IDA did not converge at Omega = {W:.10g}: {q.message[:120]}")

@@ -13,8 +13,6 @@ from hybrid.model.elements import Parameter as Parameter
 from hybrid.model.elements import Transition as Transition
 from hybrid.model.elements import Variable as Variable
 
-from .continuation.autonomous import EquilibriumBranch as EquilibriumBranch
-from .continuation.autonomous import OrbitBranch as OrbitBranch
 from .continuation.autonomous import equilibrium_branch as equilibrium_branch
 from .continuation.autonomous import hopf_branch as hopf_branch
 from .continuation.autonomous import orbit_branch as orbit_branch
@@ -22,7 +20,6 @@ from .continuation.forced import SpecialPoint as SpecialPoint
 from .continuation.forced import continue_orbits as continue_orbits
 from .continuation.frc import FrequencyResponse as FrequencyResponse
 from .continuation.frc import frequency_response as frequency_response
-from .continuation.palc import PalcSettings as PalcSettings
 from .continuation.periodic import periodic_orbit as periodic_orbit
 from .core.budget import time_limit as time_limit
 from .core.errors import AlgebraicSolveError as AlgebraicSolveError
@@ -41,8 +38,14 @@ from .core.errors import SampleCapReached as SampleCapReached
 from .core.errors import SimulationError as SimulationError
 from .core.errors import WorkerError as WorkerError
 from .core.options import ContinuationOptions as ContinuationOptions
+from .core.options import NewtonOptions as NewtonOptions
+from .core.options import ShootingOptions as ShootingOptions
 from .core.options import SolverOptions as SolverOptions
 from .core.progress import ProgressBar as ProgressBar
+from .core.status import BranchStatus as BranchStatus
+from .core.status import PointStatus as PointStatus
+from .core.status import ResponseStatus as ResponseStatus
+from .core.status import SolveStatus as SolveStatus
 from .core.version import __version__ as __version__
 from .engine.io import EventsCSVWriter as EventsCSVWriter
 from .engine.io import TrajectoryCSVWriter as TrajectoryCSVWriter
@@ -63,6 +66,7 @@ from .model.registry import resolve_model as resolve_model
 from .model.system import HybridSystem as HybridSystem
 from .orbits.autonomous import autonomous_orbit as autonomous_orbit
 from .orbits.equilibria import Equilibrium as Equilibrium
+from .orbits.equilibria import HopfPoint as HopfPoint
 from .orbits.equilibria import equilibrium as equilibrium
 from .orbits.equilibria import locate_hopf as locate_hopf
 from .orbits.orbit import ORBIT_OPTIONS as ORBIT_OPTIONS

@@ -33,8 +33,13 @@ def test_cont_finds_the_hopf_point_and_its_branch(tmp_path, capsys):
     assert code == 0, err
     v_star = 0.5 * math.log(0.5 / (0.5 * 0.1))  # vs ln((Fs - Fk)/(vs (c + cf))), the standard preset
     summary = json.loads((tmp_path / "cont.json").read_text())
-    (hopf,) = [c for e in summary["equilibria"] for c in e["changes"]]
+    (hopf,) = [c for e in summary["equilibria"] for c in e["special"]]
     assert hopf["kind"] == "hopf" and abs(hopf["value"] - v_star) <= 1e-10
+    assert hopf["status"] == "located" and hopf["interval"][0] <= hopf["value"] <= hopf["interval"][1]
+    assert abs(hopf["frequency"] - 1.0) <= 1e-10  # sqrt(k/m)
+    (branch,) = summary["orbit_branches"]
+    assert branch["start"] == "hopf" and branch["status"] == "completed" and branch["reason"] == ""
+    assert branch["message"].startswith("left the range at v_b=")
     assert f"hopf at v_b = {hopf['value']:.12g}" in out
     rows = list(csv.DictReader(open(tmp_path / "cont.csv")))
     orbits = [r for r in rows if r["kind"] == "hopf"]

@@ -33,7 +33,10 @@ def reason(err: str) -> str:
             "hybrid: error: the initial state cannot be evaluated",
         ),
         (["orbit", "absorber", "--x0", "x1=1e308"], "hybrid: error: the initial state cannot be evaluated"),
-        (["orbit", "absorber", "--samples-per-period", "4"], "hybrid: error: `samples_per_period` must be"),
+        (
+            ["orbit", "absorber", "--samples-per-period", "4"],
+            "hybrid: error: ShootingOptions: `samples_per_period` must be",
+        ),
     ],
 )
 def test_input_that_cannot_be_run_is_refused_with_exit_code_2(argv, start, capsys, tmp_path):

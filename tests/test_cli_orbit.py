@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+import hybrid
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit
 from hybrid.cli import main
@@ -93,9 +94,8 @@ def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
         d["x0"],
         d["mode0"],
         t0=d["t0"],
-        transient_periods=0,
         options=SolverOptions(integrator="exact"),
-        tol=1e-12,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0),
     )
     assert ex.converged and ex.residual <= 1e-12, ex.message
     assert d["mode_sequence"] == list(ex.mode_sequence)

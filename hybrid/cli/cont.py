@@ -10,8 +10,8 @@ What it computes, in order:
 3. the periodic orbit at the preset's value of the parameter (from a transient), continued both
    ways (e.g. the stick-slip cycle).
 
-It writes ``cont.csv`` (one row per point), ``cont.json`` (the special points and branch ends)
-and ``cont.png`` (amplitude and period against the parameter; stable solid, unstable dashed,
+It writes ``cont.csv`` (one row per point), ``cont.json`` (the special points, as
+:class:`hybrid.SpecialPoint` fields, and each branch's end: status, reason, range) and ``cont.png`` (amplitude and period against the parameter; stable solid, unstable dashed,
 the losses of stability marked).
 """
 
@@ -22,11 +22,11 @@ import csv
 import math
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 
-from ..continuation.autonomous import equilibrium_branch, hopf_branch, orbit_branch
-from ..continuation.palc import PalcSettings
+from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branch, hopf_branch, orbit_branch
 from ..core.budget import time_limit
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
@@ -82,9 +82,24 @@ def register(subparsers) -> None:
     p.set_defaults(handler=run)
 
 
+def _special(sp, branch) -> dict:
+    """A special point as JSON (an equilibrium's Hopf point with its frequency [rad/s])."""
+    out = {
+        "kind": sp.kind,
+        "value": sp.parameter,
+        "status": sp.status,
+        "accuracy": sp.accuracy,
+        "interval": list(sp.interval),
+        "description": sp.description,
+    }
+    if branch.kind == "equilibria":
+        out["frequency"] = abs(float(branch.points[sp.index].eigenvalues[0].imag))
+    return out
+
+
 def _rows_of_orbits(kind: str, k: int, branch, coord: str) -> list[dict]:
     rows = []
-    for o in branch.orbits:
+    for o in branch.points:
         triv = [m for m, kd in zip(o.multipliers, o.multiplier_kinds, strict=True) if kd == "trivial"]
         fl = np.abs(o.floquet_multipliers)
         rows.append(
@@ -129,7 +144,7 @@ def run(args) -> int:
     out = output_dir(system, args)
     announce(system, preset, params)
     bar = ProgressBar(f"cont {system.name}", enabled=args.progress)
-    settings = PalcSettings(ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
+    settings = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
     t0 = time.perf_counter()
     rows: list[dict] = []
     summary: dict = {
@@ -169,26 +184,14 @@ def run(args) -> int:
                             "modes": mode,
                         }
                     )
-            summary["equilibria"].append(
-                {
-                    "mode": mode,
-                    "changes": [
-                        {"kind": c["kind"], "value": c["value"], "frequency": c["frequency"]}
-                        for c in eb.changes
-                    ],
-                }
-            )
+            summary["equilibria"].append({"mode": mode, "special": [_special(sp, eb) for sp in eb.special]})
         obranches = []
         for eb in eq_branches:
-            for c in eb.changes:
-                if c["kind"] == "hopf":
+            for sp in eb.special:
+                if sp.kind == "hopf":
+                    eq = eb.points[sp.index]
                     obranches.append(
-                        (
-                            "hopf",
-                            hopf_branch(
-                                c["equilibrium"], args.param, (lo, hi), options=options, settings=settings
-                            ),
-                        )
+                        ("hopf", hopf_branch(eq, args.param, (lo, hi), options=options, settings=settings))
                     )
         bar(0.5)
         orbit = autonomous_orbit(system, params, options=options)
@@ -215,10 +218,12 @@ def run(args) -> int:
         summary["orbit_branches"].append(
             {
                 "start": kind,
-                "points": len(br.orbits),
+                "points": len(br.points),
+                "status": br.status,
                 "reason": br.reason,
-                "special": br.special,
-                "ends": [float(br.values[0]), float(br.values[-1])] if br.orbits else [],
+                "message": br.message,
+                "special": [_special(sp, br) for sp in br.special],
+                "ends": [float(br.values[0]), float(br.values[-1])] if br.points else [],
             }
         )
     wall = time.perf_counter() - t0
@@ -252,7 +257,7 @@ def _text(s: dict) -> str:
             "; ".join(
                 f"{c['kind']} at {s['parameter']} = {c['value']:.12g}"
                 + (f" (frequency {c['frequency']:.9g} rad/s)" if c["kind"] == "hopf" else "")
-                for c in e["changes"]
+                for c in e["special"]
             )
             or "no change of stability"
         )
@@ -261,6 +266,6 @@ def _text(s: dict) -> str:
         ends = " to ".join(f"{v:.9g}" for v in b["ends"])
         lines.append(
             f"  periodic orbits from the {b['start']}: {b['points']} points, {s['parameter']} from {ends}, "
-            f"ended: {b['reason']}"
+            f"ended: {b['status']}" + (f" ({b['reason']})" if b["reason"] else "")
         )
     return "\n".join(lines)

@@ -19,6 +19,7 @@ from ..continuation.frc import default_range, frequency_response
 from ..core.budget import time_limit
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
+from ..core.status import BranchStatus, ResponseStatus
 from ..engine.io import csv_cell, to_json, write_rows_csv
 from ..model.plot_hints import plot_hints
 from ..model.registry import resolve_model
@@ -120,12 +121,12 @@ def frc_text(fr, preset: str | None) -> str:
         if not b.points:
             lines.append(f"  branch {k}: no point ({b.message})")
             continue
-        p = b.p
+        p = b.values
         stab = {s: b.stability.count(s) for s in dict.fromkeys(b.stability)}
         lines.append(
             f"  branch {k}: {len(p)} orbits, {par} {p[0]:.6g} -> {p[-1]:.6g}, "
             + ", ".join(f"{n} {s}" for s, n in stab.items())
-            + (f"; {b.status}: {b.message}" if b.status != "completed" else "")
+            + (f"; {b.status}: {b.message}" if b.status != BranchStatus.COMPLETED else "")
         )
         for name in coords:
             a = b.amplitude(name)
@@ -276,8 +277,8 @@ def cmd_frc(args) -> int:
         "branches": [
             {
                 "points": len(b.points),
-                "omega_start": float(b.p[0]) if b.points else None,
-                "omega_end": float(b.p[-1]) if b.points else None,
+                "omega_start": float(b.values[0]) if b.points else None,
+                "omega_end": float(b.values[-1]) if b.points else None,
                 "status": b.status,
                 "reason": b.reason,
                 "message": b.message,
@@ -286,7 +287,7 @@ def cmd_frc(args) -> int:
         ],
         "special": special,
         "gaps": [list(g) for g in fr.gaps],
-        "complete": fr.complete,
+        "complete": fr.status == ResponseStatus.COMPLETE,
         "overlays": list(overlays),
         "wall_time_s": wall,
         "files": [str(f) for f in files] + [str(out / "frc.json")],
@@ -307,7 +308,7 @@ def cmd_frc(args) -> int:
             "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
             "element's offset) picks the member (README, docs/models.md)"
         )
-    if not fr.complete:
+    if fr.status != ResponseStatus.COMPLETE:
         for m in fr.messages():
             info(f"hybrid: {m}")
         return 1

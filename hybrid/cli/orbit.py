@@ -9,7 +9,7 @@ import numpy as np
 
 from ..continuation.periodic import periodic_orbit
 from ..core.budget import time_limit
-from ..core.options import SolverOptions
+from ..core.options import ShootingOptions, SolverOptions
 from ..engine.io import to_json, write_trajectory_csv
 from ..engine.simulate import initial_state
 from ..model.registry import resolve_model
@@ -131,9 +131,8 @@ def cmd_orbit(args) -> int:
             params,
             guess,
             mode0,
-            transient_periods=args.transient,
             options=options,
-            samples_per_period=spp,
+            settings=ShootingOptions(transient_periods=args.transient, samples_per_period=spp),
         )
     wall = time.perf_counter() - t0
     summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}

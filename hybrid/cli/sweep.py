@@ -18,7 +18,7 @@ from pathlib import Path
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..model.registry import resolve_model
-from ..studies.sweep import MANIFEST, linear_axis, load_sweep, log_axis, sweep
+from ..studies.sweep import FAILED, MANIFEST, linear_axis, load_sweep, log_axis, sweep
 from .common import (
     UsageError,
     add_model_args,
@@ -193,14 +193,23 @@ def die_with_parent() -> None:
 
 
 class _SweepBar:
-    """``progress(done, failed, total)`` drawn as a bar with the points failed and the time left."""
+    """A sweep's progress drawn as a bar with the points done, failed and the time left: called as
+    ``progress(fraction)`` (the points done), its :meth:`point` as ``on_point(index, result)``
+    (counts the failed ones; ``failed``: those found failed in a resumed folder)."""
 
-    def __init__(self, label: str, enabled: bool | None):
+    def __init__(self, label: str, enabled: bool | None, total: int, failed: int = 0):
         self.bar = ProgressBar(label, enabled=enabled)
         self.t0 = time.perf_counter()
         self.first = None  # points already done when the run started
+        self.total = total
+        self.failed = failed
 
-    def __call__(self, done: int, failed: int, total: int) -> None:
+    def point(self, index: tuple, result: dict) -> None:
+        self.failed += result["status"] in FAILED
+
+    def __call__(self, fraction: float) -> None:
+        total, failed = self.total, self.failed
+        done = round(fraction * total)
         if self.first is None:
             self.first = done
         new = done - self.first
@@ -248,7 +257,9 @@ def cmd_sweep(args) -> int:
         executor = ProcessPoolExecutor(max_workers=workers, initializer=die_with_parent)
         where = f"{workers} worker processes"
     info(f"running on {where}; each point written to {out} as it finishes")
-    bar = _SweepBar(f"sweep {system.name}", args.progress)
+    resumed = load_sweep(out) if args.resume and (out / MANIFEST).exists() else None
+    failed = sum(r["status"] in FAILED for r in resumed.points.values()) if resumed is not None else 0
+    bar = _SweepBar(f"sweep {system.name}", args.progress, n, failed)
     t0 = time.perf_counter()
     try:
         res = sweep(
@@ -263,6 +274,7 @@ def cmd_sweep(args) -> int:
             executor=executor,
             resume=args.resume,
             progress=bar,
+            on_point=bar.point,
         )
     except KeyboardInterrupt:
         info(
@@ -281,7 +293,7 @@ def cmd_sweep(args) -> int:
         info(
             f"hybrid: {len(res.lost)} points lost by the executor (first: {res.lost[0][1]}); --resume computes them"
         )
-    bad = [r for r in res.points.values() if r["status"] in ("failed", "time limit")]
+    bad = [r for r in res.points.values() if r["status"] in FAILED]
     if bad or not res.complete:
         info(
             f"hybrid: {len(bad)} points failed or ran out of time; their reasons are in their files in {out}"

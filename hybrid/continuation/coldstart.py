@@ -37,7 +37,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 from ..core.budget import deadline_passed, time_limit
-from ..core.options import ContinuationOptions, SolverOptions
+from ..core.options import ContinuationOptions, ShootingOptions, SolverOptions
 from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem
 from ..orbits.orbit import PeriodicOrbit
@@ -93,7 +93,7 @@ def _starts(p: float, marks: list[float]) -> list[tuple[float, float]]:
 
 def _bracket(branch: Branch, p: float) -> list:
     """The branch's orbits beside the first crossing of ``p``, nearest to ``p`` first."""
-    ps = branch.p
+    ps = branch.values
     for k in range(1, ps.size):
         if (ps[k - 1] - p) * (ps[k] - p) <= 0:
             pair = [branch.points[k - 1], branch.points[k]]
@@ -106,11 +106,8 @@ def find_by_continuation(
     params: Mapping[str, float],
     failed: PeriodicOrbit,
     *,
-    options: SolverOptions,
-    tol: float,
-    max_iter: int,
-    transient_periods: int,
-    samples_per_period: int,
+    options: SolverOptions | None,
+    settings: ShootingOptions,
 ) -> PeriodicOrbit:
     """The periodic orbit at ``params`` by continuation in the forcing parameter (see the module).
 
@@ -123,16 +120,12 @@ def find_by_continuation(
     failed : PeriodicOrbit
         Newton's failed result from the cold start (returned, with what the fallback tried added
         to its message, if the fallback fails too).
-    options : SolverOptions
-        Tolerances and budgets of every run.
-    tol : float
-        Newton tolerance (relative residual of the period map, dimensionless).
-    max_iter : int
-        Newton iterations of the final correction.
-    transient_periods : int
-        Forcing periods of the transient of each start's cold start.
-    samples_per_period : int
-        Samples of the returned orbit's trajectory.
+    options : SolverOptions or None
+        Tolerances and budgets of every run (None: :data:`hybrid.ORBIT_OPTIONS`).
+    settings : ShootingOptions
+        ``newton``: the tolerance of every Newton iteration (relative residual of the period
+        map) and the iterations of the final correction; ``transient_periods``: the transient of
+        each start's cold start; ``samples_per_period``: the samples of the returned orbit.
 
     Returns
     -------
@@ -160,15 +153,17 @@ def find_by_continuation(
             ],
         )
     p = float(system.parameter_values(params)[par])
-    settings = ContinuationOptions(
+    tol = settings.newton.tol
+    branch_settings = ContinuationOptions(
         locate=False,
         max_growth=MAX_GROWTH,
         max_failures=MAX_FAILURES,
         max_points=MAX_POINTS,
-        tol=tol,
-        transient_periods=transient_periods,
+        newton=replace(ContinuationOptions().newton, tol=tol),
+        transient_periods=settings.transient_periods,
         samples_per_period=BRANCH_SAMPLES,
     )
+    correction = replace(settings, transient_periods=0)
     tried: list[str] = []
     with time_limit(FALLBACK_SECONDS):
         skip = set()  # anchors whose side has been given up
@@ -179,7 +174,9 @@ def find_by_continuation(
             if anchor in skip or start == p:
                 continue
             try:
-                branch = continue_orbits(system, params, par, (start, p), options=options, settings=settings)
+                branch = continue_orbits(
+                    system, params, par, (start, p), options=options, settings=branch_settings
+                )
             except ValueError as exc:  # e.g. a start outside the parameter's domain or time range
                 tried.append(f"from {par}={start:.8g}: {exc}")
                 continue
@@ -202,11 +199,8 @@ def find_by_continuation(
                     o.x0,
                     o.mode0,
                     t0=phase * failed.period,
-                    transient_periods=0,
                     options=options,
-                    tol=tol,
-                    max_iter=max_iter,
-                    samples_per_period=samples_per_period,
+                    settings=correction,
                 )
                 if orbit.converged:
                     why = failed.message.split(";")[0].split(" (")[0]

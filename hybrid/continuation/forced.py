@@ -21,15 +21,21 @@ Settings are a :class:`hybrid.ContinuationOptions`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
-from dataclasses import replace
+from collections.abc import Mapping
 from functools import partial
 
 import numpy as np
 
+from ..core.callbacks import OnPoint, Progress
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError
-from ..core.options import ContinuationOptions, SolverOptions, check_samples
+from ..core.options import (
+    FIRST_ORBIT_MAX_ITER,
+    ContinuationOptions,
+    SolverOptions,
+    reject_keywords,
+)
 from ..engine.simulate import check_time_range, initial_state
+from ..engine.trajectory import Status
 from ..model.system import HybridSystem
 from ..orbits.newton import COARSE_RTOL, COARSE_SWITCH, NewtonMap, coarse_shooter, state_scale
 from ..orbits.orbit import (
@@ -122,7 +128,7 @@ class _Continuer:
         self.a, self.b = p_range
         self.sp = abs(self.b - self.a)
         self.settings = settings
-        self.tol = settings.tol
+        self.tol = settings.newton.tol
         self.sh = Shooter(system, params, options, free=parameter)
         # The map at a looser tolerance for the iterations that cannot be accepted (IDA only).
         self.coarse = coarse_shooter(self.sh, self.tol)
@@ -204,7 +210,7 @@ class _Continuer:
         its monodromy are always those of the requested tolerances. A step expected to end at
         the point (from a residual below ``SAMPLE_AHEAD``) is run with samples at once.
         """
-        max_iter = self.settings.max_iter
+        max_iter = self.settings.newton.max_iter
         nw = NewtonMap(self.sh, pt.mode)
         d = nw.d
         sy = self.scale_of(pt, d)
@@ -239,7 +245,7 @@ class _Continuer:
             else:
                 tr = self.sh.run(y, pt.mode, t0, samples=samples)
             if not tr.success:
-                raise _Fail(f"run failed at {self.parameter}={p:.8g}: {tr.message}")
+                raise _Fail(f"run failed at {self.parameter}={p:.8g}: {tr.message}", "run-failed", tr.status)
             r = nw.residual(tr, y)
             scale = state_scale(y, d)
             res = float(np.max(np.abs(r))) / scale
@@ -247,14 +253,15 @@ class _Continuer:
                 staged = False  # near the coarse map's noise (or far off): the requested map here
                 continue
             if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(sy, 1e-300):
-                raise _Fail(f"the response grows without bound near {self.parameter}={p:.8g}")
+                raise _Fail(f"the response grows without bound near {self.parameter}={p:.8g}", "unbounded")
             if prev is not None and res > max(prev[2], 1e-3 * self.tol):
                 # Damped Newton: the map is only piecewise smooth and I - M nearly singular (below
                 # tol / 1000 the residual is not compared: there the update decides convergence).
                 if lam <= 1.0 / 16:
                     raise _Fail(
                         f"corrector: no step decreases the residual ({prev[2]:.3g}) near "
-                        f"{self.parameter}={prev[1]:.8g}"
+                        f"{self.parameter}={prev[1]:.8g}",
+                        "no-decrease",
                     )
                 lam *= 0.5
                 y = prev[0].copy()
@@ -301,7 +308,7 @@ class _Continuer:
                 and float(np.max(np.abs(delta / D))) <= step_tol
             ):
                 if tr.mode_final != pt.mode:
-                    raise _Fail("section reached a switch")
+                    raise _Fail("section reached a switch", "section-switch")
                 new = _Point(y, p, pt.mode, pt.phi, iterations=it)
                 new.tangent = self.null_vector(A, D, tau)
                 if light:
@@ -321,7 +328,10 @@ class _Continuer:
             y = y.copy()
             y[d] += delta[:-1]
             p = float(p + delta[-1])
-        raise _Fail(f"corrector did not converge in {max_iter} iterations near {self.parameter}={p:.8g}")
+        raise _Fail(
+            f"corrector did not converge in {max_iter} iterations near {self.parameter}={p:.8g}",
+            "not-converged",
+        )
 
     def _coarse_run(self, y, mode: str, t0: float):
         """A plain run of the coarse map, or None if it fails (anything but a plain run)."""
@@ -387,7 +397,22 @@ class _Continuer:
 
 
 class _Fail(Exception):
-    pass
+    """A failed corrector step: ``reason`` (``"run-failed"``, ``"unbounded"``, ``"no-decrease"``,
+    ``"section-switch"``, ``"not-converged"``) and, for a failed run, its ``status``."""
+
+    def __init__(self, message: str, reason: str, status: Status | None = None):
+        super().__init__(message)
+        self.reason = reason
+        self.status = status
+
+
+def _at_a_switch(exc: Exception) -> bool:
+    """A failed step that a switch at the section causes: the run ends in another mode than the
+    section's, a switch there grazes (no saltation matrix), or switches pile up at an instant
+    (a Zeno point, no admissible mode). The section is moved and the step tried again."""
+    if isinstance(exc, _Fail):
+        return exc.reason == "section-switch" or exc.status in (Status.ZENO, Status.NO_ADMISSIBLE_MODE)
+    return isinstance(exc, GrazingSwitchError)
 
 
 #: The branch's arclength takes the balanced units of its first point (Parlett-Reinsch factors of
@@ -435,19 +460,6 @@ def _size(o: PeriodicOrbit) -> float:
     return max((o.amplitude[n] for n in o.state_names if n in o.amplitude), default=0.0)
 
 
-#: Keywords of :func:`continuation` kept from before :class:`ContinuationOptions`.
-_LEGACY = (
-    "ds",
-    "ds_min",
-    "ds_max",
-    "max_points",
-    "tol",
-    "transient_periods",
-    "samples_per_period",
-    "locate",
-)
-
-
 def continue_orbits(
     system: HybridSystem,
     params: Mapping[str, float],
@@ -458,9 +470,9 @@ def continue_orbits(
     mode0: str | None = None,
     options: SolverOptions | None = None,
     settings: ContinuationOptions | None = None,
-    progress: Callable[[float], None] | None = None,
-    on_point: Callable[[PeriodicOrbit], None] | None = None,
-    **legacy,
+    progress: Progress | None = None,
+    on_point: OnPoint | None = None,
+    **unexpected,
 ) -> Branch:
     """Continue periodic orbits in ``parameter`` from ``p_range[0]`` towards ``p_range[1]``.
 
@@ -482,32 +494,35 @@ def continue_orbits(
     settings : ContinuationOptions, optional
         Steps, tolerances, location of special points, limits of a branch.
     progress : callable, optional
-        Called with the fraction of the parameter range covered.
+        ``progress(fraction)`` with the fraction of the parameter range covered
+        (:data:`hybrid.core.callbacks.Progress`).
     on_point : callable, optional
-        Called with every orbit as it is appended to the branch (in branch order), e.g. to
-        write it at once.
-    **legacy
-        ``ds``, ``ds_min``, ``ds_max``, ``max_points``, ``tol``, ``transient_periods``,
-        ``samples_per_period``, ``locate``: override the fields of ``settings``.
+        ``on_point(0, orbit)`` with every orbit as it is appended to the branch (in branch
+        order), e.g. to write it at once (:data:`hybrid.core.callbacks.OnPoint`; the branch's
+        index is 0: this is the only branch).
 
     Returns
     -------
     Branch
-        Ends when it leaves the range, reaches ``max_points``, grows without bound (a special
-        point ``"unbounded"``; ``reason`` ``"unbounded"``) or stalls (``reason`` ``"stalled"``).
+        ``kind`` ``"forced-orbits"``. Ends when it leaves the range, reaches ``max_points``,
+        grows without bound (a special point ``"unbounded"``; ``reason`` ``"unbounded"``) or
+        stalls (``reason`` ``"stalled"``); see :data:`hybrid.core.status.BRANCH_REASONS`.
+
+    Raises
+    ------
+    ValueError
+        Bad input (before any integration).
+    TypeError
+        A keyword that is a field of ``options`` or ``settings`` (the message says which).
     """
+    reject_keywords("continue_orbits", unexpected, options=SolverOptions, settings=ContinuationOptions)
     options = ORBIT_OPTIONS if options is None else options
     if not isinstance(system, HybridSystem):
         raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
-    unknown = set(legacy) - set(_LEGACY)
-    if unknown:
-        raise InputTypeError(f"continue_orbits() got unexpected keyword argument(s) {sorted(unknown)}")
     if settings is None:
         settings = ContinuationOptions()
     elif not isinstance(settings, ContinuationOptions):
         raise InputTypeError(f"`settings` must be a ContinuationOptions, got {type(settings).__name__}")
-    if legacy:
-        settings = replace(settings, **legacy)
     if parameter is None:
         parameter = forcing_parameter(system)
     if parameter not in system.parameter_names:
@@ -519,7 +534,6 @@ def continue_orbits(
     a, b = (float(v) for v in p_range)
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
         raise InputError(f"`p_range` must be two different finite numbers, got {p_range!r}")
-    check_samples(settings.samples_per_period)
     start_params = system.parameter_values({**dict(params), parameter: a})
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
@@ -532,23 +546,29 @@ def continue_orbits(
         n = settings.transient_periods + 1 if p == a else 2
         check_time_range(c.sh.cs, options, 0.0, n * c.sh.period)
     direction = 1.0 if b > a else -1.0
-    branch = Branch(system, dict(start_params), parameter)
+    branch = Branch("forced-orbits", system, dict(start_params), parameter)
 
     def add(orbit: PeriodicOrbit) -> int:
         branch.points.append(orbit)
         if on_point is not None:
-            on_point(orbit)
+            on_point(0, orbit)
         return len(branch.points) - 1
 
     try:
         first = solve_orbit(
-            c.sh, y0, mode0, 0.0, settings.transient_periods, settings.tol, 30, settings.samples_per_period
+            c.sh,
+            y0,
+            mode0,
+            0.0,
+            settings.transient_periods,
+            settings.newton.tol,
+            FIRST_ORBIT_MAX_ITER,
+            settings.samples_per_period,
         )
         _follow(c, branch, first, direction, add, progress)
     except BudgetExceeded as exc:  # the budget of a run or the computation's deadline: stop here
-        branch.status, branch.reason = "stopped", "budget"
         last = branch.points[-1].params[parameter] if branch.points else a
-        branch.message = f"stopped at {parameter}={last:.8g}: {exc}"
+        branch.stop("budget", f"stopped at {parameter}={last:.8g}: {exc}")
     return branch
 
 
@@ -559,12 +579,11 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
     a, b = c.a, c.b
     samples = st.samples_per_period
 
-    def stop(reason: str, message: str) -> None:
-        branch.status, branch.reason, branch.message = "stopped", reason, message
+    stop = branch.stop
 
     # An orbit that Newton's method left just above its tolerance (noise of the map) is
     # finished by the bordered corrector at the same parameter.
-    near = math.isfinite(first.residual) and first.residual <= 1e3 * st.tol
+    near = math.isfinite(first.residual) and first.residual <= 1e3 * st.newton.tol
     if not first.converged and not near:
         stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}")
         return
@@ -601,10 +620,10 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
         try:
             new = c.correct(pt, ds_cur, samples)
         except (_Fail, *_FAILURES) as exc:
-            grow = "grows without bound" in str(exc)
+            grow = isinstance(exc, _Fail) and exc.reason == "unbounded"
             # A switch moved onto the section: move the section (once per point) to the middle of
             # the longest mode interval, and retry the same step.
-            if "switch" in str(exc) and not rephased:
+            if _at_a_switch(exc) and not rephased:
                 moved = _rephase(c, pt, direction)
                 if moved is not None:
                     pt, rephased = moved, True
@@ -709,8 +728,7 @@ def _unbounded(c: _Continuer, branch: Branch, pt: _Point, new: _Point | None, wh
             "unbounded", k, pt.p, dict(pt.orbit.amplitude), desc, "bracketed", 0.5 * (iv[1] - iv[0]), iv
         )
     )
-    branch.status, branch.reason = "stopped", "unbounded"
-    branch.message = f"stopped at {par}={pt.p:.8g}: {desc}"
+    branch.stop("unbounded", f"stopped at {par}={pt.p:.8g}: {desc}")
 
 
 def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:

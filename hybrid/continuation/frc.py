@@ -21,7 +21,10 @@ import numpy as np
 
 from ..core.budget import current_deadline, deadline_passed
 from ..core.budget import restore_deadline as _deadline
+from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
+from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.status import BranchStatus, ResponseStatus
 from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem, shared
 from .branch import Branch, forcing_parameter
@@ -98,8 +101,14 @@ class FrequencyResponse:
     resonances : ndarray
         Natural frequencies of the linearised initial mode [rad/s].
     pieces : list of Piece
-    timed_out : bool
-        The deadline of :func:`hybrid.time_limit` passed: what was not computed is a gap.
+    status : ResponseStatus
+        ``"complete"`` (every part of the range covered, every branch with a point) or
+        ``"incomplete"``.
+    reason : str
+        Why it is incomplete, a code of :data:`hybrid.core.status.RESPONSE_REASONS`
+        (``"time-limit"``: the deadline of :func:`hybrid.time_limit` passed and what was not
+        computed is a gap; ``"gaps"``; ``"empty-branch"``); ``""`` if complete.
+        :meth:`messages` says the same in words.
     """
 
     system: HybridSystem
@@ -108,7 +117,8 @@ class FrequencyResponse:
     p_range: tuple
     resonances: np.ndarray
     pieces: list = field(default_factory=list)
-    timed_out: bool = False
+    status: ResponseStatus = ResponseStatus.COMPLETE
+    reason: str = ""
 
     @property
     def branches(self) -> list[Branch]:
@@ -118,21 +128,28 @@ class FrequencyResponse:
     def gaps(self) -> list[tuple[float, float]]:
         return [g for pc in self.pieces for g in pc.gaps]
 
-    @property
-    def complete(self) -> bool:
-        return not self.gaps and all(b.points for b in self.branches)
+    def conclude(self) -> None:
+        """Set :attr:`status` and :attr:`reason` from the pieces."""
+        if any(pc.timed_out for pc in self.pieces):
+            self.status, self.reason = ResponseStatus.INCOMPLETE, "time-limit"
+        elif self.gaps:
+            self.status, self.reason = ResponseStatus.INCOMPLETE, "gaps"
+        elif not all(b.points for b in self.branches):
+            self.status, self.reason = ResponseStatus.INCOMPLETE, "empty-branch"
+        else:
+            self.status, self.reason = ResponseStatus.COMPLETE, ""
 
     def messages(self) -> list[str]:
         """What stopped a branch, and the gaps left."""
         out = [
             f"branch {k} ({_span(b)}): {b.message}"
             for k, b in enumerate(self.branches)
-            if b.status != "completed"
+            if b.status != BranchStatus.COMPLETED
         ]
         out += [
             f"no periodic orbit computed for {self.parameter} in ({a:.8g}, {b:.8g})" for a, b in self.gaps
         ]
-        if self.timed_out:
+        if self.reason == "time-limit":
             out.append("time limit reached (hybrid.time_limit; CLI --max-time): the gaps were not computed")
         return out
 
@@ -167,6 +184,21 @@ class FrequencyResponse:
             offset += len(b.points)
         return rows
 
+    def __repr__(self) -> str:
+        lo, hi = self.p_range
+        n = sum(len(b.points) for b in self.branches)
+        ns = sum(len(b.special) for b in self.branches)
+        return (
+            f"FrequencyResponse({self.system.name} in {self.parameter} from {lo:.6g} to {hi:.6g}: "
+            f"{_count(len(self.branches), 'branch', 'branches')}, {_count(n, 'orbit', 'orbits')}, "
+            f"{_count(ns, 'special point', 'special points')}, {_count(len(self.gaps), 'gap', 'gaps')}; "
+            f"{self.status}" + (f" ({self.reason})" if self.reason else "") + ")"
+        )
+
+
+def _count(n: int, one: str, many: str) -> str:
+    return f"{n} {one if n == 1 else many}"
+
 
 #: Where a branch is started again, as fractions of its piece, when it cannot start at the piece's end.
 NO_START_RETRY = (1e-3, 2e-2)
@@ -189,7 +221,7 @@ def _uncovered(a: float, b: float, spans: list[tuple[float, float]]) -> list[tup
 def _span(b: Branch) -> str:
     if not b.points:
         return "no point"
-    p = b.p
+    p = b.values
     return f"{b.parameter} {p[0]:.6g} to {p[-1]:.6g}"
 
 
@@ -210,11 +242,13 @@ def frequency_response(
     p_range: tuple[float, float],
     *,
     parameter: str | None = None,
-    progress: Callable[[float], None] | None = None,
-    on_point: Callable[[int, object], None] | None = None,
+    options: SolverOptions | None = None,
+    settings: ContinuationOptions | None = None,
+    progress: Progress | None = None,
+    on_point: OnPoint | None = None,
     workers: int = 1,
     while_computing: Callable[[], None] | None = None,
-    **continuation_options,
+    **unexpected,
 ) -> FrequencyResponse:
     """Periodic orbits over a range of the forcing frequency, one piece per resonance.
 
@@ -228,11 +262,18 @@ def frequency_response(
     parameter : str, optional
         The forcing frequency's parameter (default: the one parameter the model's period
         depends on, :func:`hybrid.forcing_parameter`).
+    options : SolverOptions, optional
+        Tolerances and budgets of the runs (default :data:`hybrid.ORBIT_OPTIONS`), e.g.
+        ``SolverOptions(integrator="exact")``.
+    settings : ContinuationOptions, optional
+        Steps, tolerances, location of special points, limits of a branch (default
+        ``ContinuationOptions()``).
     progress : callable, optional
-        Called with the fraction of the range covered (0 to 1).
+        ``progress(fraction)`` with the fraction of the range covered (0 to 1).
     on_point : callable, optional
-        Called as ``on_point(branch_index, orbit)`` with every orbit as it is accepted (e.g. to
-        write it at once: an interrupted computation keeps what it did), branch after branch.
+        ``on_point(branch_index, orbit)`` with every orbit as it is accepted (e.g. to write it
+        at once: an interrupted computation keeps what it did), branch after branch
+        (:mod:`hybrid.core.callbacks`).
     workers : int
         Pieces computed at once, each in a process forked from this one (where the platform
         forks; else one after the other). The result is the same as with one: each piece is
@@ -242,8 +283,6 @@ def frequency_response(
         With worker processes: called once here, after the last of them has started (nothing is
         forked after it), e.g. to start importing in a thread what the caller needs afterwards
         while the workers compute. Not called when the pieces are computed in this process.
-    **continuation_options
-        Passed on to :func:`hybrid.continue_orbits` (``settings``, ``options``, ``ds``, ...).
 
     Returns
     -------
@@ -254,6 +293,11 @@ def frequency_response(
     hybrid.core.errors.WorkerError
         A worker process failed (its exception's type and message in this one's) or ended
         without a result.
+    hybrid.core.errors.InputError
+        Bad input (before any integration).
+    hybrid.core.errors.InputTypeError
+        A keyword that is a field of ``options`` or ``settings`` (the message says which: e.g.
+        ``integrator="exact"`` belongs in ``options=SolverOptions(integrator="exact")``).
 
     Examples
     --------
@@ -263,6 +307,7 @@ def frequency_response(
     >>> params = system.presets["forced"]
     >>> fr = hybrid.frequency_response(system, params, (0.6, 0.7))  # doctest: +SKIP
     """
+    reject_keywords("frequency_response", unexpected, options=SolverOptions, settings=ContinuationOptions)
     if parameter is None:
         parameter = forcing_parameter(system)
     lo, hi = (float(v) for v in p_range)
@@ -273,7 +318,7 @@ def frequency_response(
     res = natural_frequencies(system, params)
     out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
     cuts = _cuts(lo, hi, res)
-    job = _PieceJob(system, dict(params), parameter, dict(continuation_options))
+    job = _PieceJob(system, dict(params), parameter, options, settings)
     if workers > 1 and len(cuts) > 1 and "fork" in multiprocessing.get_all_start_methods():
         out.pieces = _parallel(
             job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point, while_computing
@@ -292,7 +337,7 @@ def frequency_response(
             done += b - a
             if progress is not None:
                 progress(done / total)
-    out.timed_out = any(pc.timed_out for pc in out.pieces)
+    out.conclude()
     return out
 
 
@@ -304,15 +349,16 @@ class _PieceJob:
     system: HybridSystem
     params: dict
     parameter: str
-    options: dict
+    options: SolverOptions | None
+    settings: ContinuationOptions | None
 
     def piece(
         self,
         a: float,
         b: float,
         w: float | None,
-        progress: Callable[[float], None] | None,
-        on_point: Callable[[int, object], None] | None,
+        progress: Progress | None,
+        on_point: OnPoint | None,
     ) -> Piece:
         """The branches over ``(a, b)`` (``progress``: fraction of it covered; ``on_point(j, orbit)``,
         ``j`` the branch's index in the piece)."""
@@ -333,11 +379,12 @@ class _PieceJob:
                 progress=None
                 if progress is None
                 else (lambda f: progress(min(1.0, (covered + f * abs(end - start)) / (b - a)))),
-                on_point=None if on_point is None else (lambda o: on_point(j, o)),
-                **self.options,
+                on_point=None if on_point is None else (lambda _, o: on_point(j, o)),
+                options=self.options,
+                settings=self.settings,
             )
             piece.branches.append(br)
-            piece.timed_out = piece.timed_out or (br.status == "stopped" and deadline_passed())
+            piece.timed_out = piece.timed_out or (br.status == BranchStatus.STOPPED and deadline_passed())
             return br
 
         # A start that fails at the end of the range (e.g. a degenerate orbit there), or a branch
@@ -347,13 +394,13 @@ class _PieceJob:
             stuck = up.reason == "no-start" or (up.reason == "stalled" and len(up.points) <= 1)
             if not stuck or deadline_passed():
                 break
-        reach = float(np.max(up.p)) if up.points else a
+        reach = float(np.max(up.values)) if up.points else a
         if reach < b and deadline_passed():
             piece.timed_out = True
         elif reach < b:
             run(b, reach)
         piece.gaps = _uncovered(
-            a, b, [(float(np.min(br.p)), float(np.max(br.p))) for br in piece.branches if br.points]
+            a, b, [(float(np.min(br.values)), float(np.max(br.values))) for br in piece.branches if br.points]
         )
         return piece
 

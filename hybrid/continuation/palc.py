@@ -4,48 +4,25 @@ Used for autonomous periodic orbits (``u = (y, T, p)`` or ``(y, p)``) by
 :mod:`hybrid.continuation.autonomous`. The problem gives ``evaluate(u) -> (F, dF/du, info)``; the corrector
 is Newton's method on ``[F(u); t . (u - u_pred)] = 0`` (``t`` the unit tangent), the next tangent
 the null vector of ``dF/du`` with the sense of the last one. The step doubles after an easy
-correction (at most 3 iterations) and halves after a failure.
+correction (at most 3 iterations) and halves after a failure. Its settings are a
+:class:`hybrid.ContinuationOptions` (``ds``, ``ds_min``, ``ds_max``, ``max_points``, ``newton``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.errors import GrazingSwitchError
+from ..core.options import ContinuationOptions
 
-__all__ = ["PalcSettings", "follow", "RETRY"]
+__all__ = ["follow", "RETRY"]
 
 #: What ``accept`` returns for a point that lies beyond a boundary of the branch (e.g. where the
 #: solution changes kind): it is discarded and approached with half the step, down to ``ds_min``
 #: (then the branch ends with the reason ``"boundary"``).
 RETRY = "retry"
-
-
-@dataclass(frozen=True)
-class PalcSettings:
-    """Step control of :func:`follow`.
-
-    Attributes
-    ----------
-    ds, ds_min, ds_max : float
-        First, smallest and largest arclength step (in ``u``'s units).
-    max_points : int
-        Points computed at most.
-    max_iter : int
-        Corrector iterations per step.
-    tol : float
-        Corrector tolerance on ``max |F|`` and on the last update (relative to ``max(1, max |u|)``).
-    """
-
-    ds: float = 0.02
-    ds_min: float = 1e-6
-    ds_max: float = 0.2
-    max_points: int = 200
-    max_iter: int = 8
-    tol: float = 1e-9
 
 
 def tangent(J: np.ndarray, previous: np.ndarray) -> np.ndarray:
@@ -62,10 +39,10 @@ def follow(
     evaluate: Callable,
     u0: np.ndarray,
     t0: np.ndarray,
-    settings: PalcSettings,
+    settings: ContinuationOptions,
     *,
     index: int,
-    bounds: tuple[float, float],
+    p_range: tuple[float, float],
     accept: Callable | None = None,
 ) -> tuple[list, str]:
     """Follow the curve ``F(u) = 0`` from the solution ``u0`` in the direction ``t0``.
@@ -79,10 +56,13 @@ def follow(
         A solution (it is corrected first along ``t0``'s normal hyperplane).
     t0 : ndarray, shape (n+1,)
         The initial direction.
-    settings : PalcSettings
+    settings : ContinuationOptions
+        ``ds``, ``ds_min``, ``ds_max``: first, smallest and largest arclength step (in ``u``'s
+        units); ``max_points``; ``newton``: the corrector's iterations per step and its tolerance
+        on ``max |F|`` and on the last update (relative to ``max(1, max |u|)``).
     index : int
         Position of the continued parameter in ``u``.
-    bounds : (float, float)
+    p_range : (float, float)
         The branch ends when the parameter leaves this interval.
     accept : callable, optional
         ``(u, info) -> str | None`` for each corrected point: a reason to stop after it, None, or
@@ -99,7 +79,7 @@ def follow(
     u = np.asarray(u0, dtype=float)
     points: list = []
     ds = 0.0  # the start: corrected on its own hyperplane
-    lo, hi = bounds
+    lo, hi = p_range
     while len(points) < st.max_points:
         got = _correct(evaluate, u + ds * t, t, st)
         if got is None:
@@ -127,10 +107,11 @@ def follow(
     return points, "max_points"
 
 
-def _correct(evaluate, u, t, st: PalcSettings):
+def _correct(evaluate, u, t, st: ContinuationOptions):
     """Newton's method on ``[F(u); t . (u - u_pred)]``; ``(u, J, info, iterations)`` or None."""
     u_pred = u.copy()
-    for it in range(st.max_iter):
+    tol = st.newton.tol
+    for it in range(st.newton.max_iter):
         try:
             F, J, info = evaluate(u)
         except (RuntimeError, GrazingSwitchError, ZeroDivisionError, np.linalg.LinAlgError):
@@ -141,7 +122,7 @@ def _correct(evaluate, u, t, st: PalcSettings):
         rhs = -np.concatenate([F, [t @ (u - u_pred)]])
         du = np.linalg.lstsq(A, rhs, rcond=None)[0]
         scale = max(1.0, float(np.max(np.abs(u))))
-        if float(np.max(np.abs(F))) <= st.tol * scale and float(np.max(np.abs(du))) <= 10 * st.tol * scale:
+        if float(np.max(np.abs(F))) <= tol * scale and float(np.max(np.abs(du))) <= 10 * tol * scale:
             return u, J, info, it
         u = u + du
     return None

@@ -9,9 +9,10 @@ its fallback is a continuation.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 from ..core.budget import deadline_passed
-from ..core.options import SolverOptions
+from ..core.options import ShootingOptions, SolverOptions, reject_keywords
 from ..model.system import HybridSystem
 from ..orbits.autonomous import autonomous_orbit
 from ..orbits.orbit import PeriodicOrbit
@@ -28,11 +29,9 @@ def periodic_orbit(
     mode0: str | None = None,
     *,
     t0: float | None = None,
-    transient_periods: int = 10,
     options: SolverOptions | None = None,
-    tol: float = 1e-9,
-    max_iter: int = 30,
-    samples_per_period: int = 512,
+    settings: ShootingOptions | None = None,
+    **unexpected,
 ) -> PeriodicOrbit:
     """Periodic orbit by Newton shooting, with its monodromy matrix and Floquet multipliers.
 
@@ -52,73 +51,44 @@ def periodic_orbit(
     mode0 : str, optional
         Mode of the guess (default: the model's initial mode).
     t0 : float, optional
-        Time of the guess [s]. If given with ``transient_periods=0``, the
+        Time of the guess [s]. If given with ``settings.transient_periods=0``, the
         section is ``(t0, x0, mode0)`` as given (e.g. the previous point of a
         continuation); otherwise a transient of ``transient_periods`` forcing
         periods is run from the guess and the section is put in the middle of
         the longest mode interval of its last period.
-    transient_periods : int
-        Forcing periods simulated from the guess before Newton's method. If Newton's method
-        from the transient fails (``transient_periods > 0``), the orbit is sought by a route
-        that cannot wander: a continuation in the forcing parameter from a value where a cold
-        start converges, then a correction at exactly the requested value
-        (:mod:`hybrid.continuation.coldstart`); ``route`` says which route found it.
     options : SolverOptions, optional
         Tolerances (default :data:`ORBIT_OPTIONS`, rtol 1e-10).
-    tol : float
-        Newton tolerance on ``max |P(x) - x| / max |x|``.
-    max_iter : int
-        Newton iterations allowed.
-    samples_per_period : int
-        Samples of the returned one-period trajectory.
+    settings : ShootingOptions, optional
+        Newton's method (``newton``: tolerance on ``max |P(x) - x| / max |x|``, iterations),
+        the transient (``transient_periods``) and the samples of the returned one-period
+        trajectory (``samples_per_period``); default ``ShootingOptions()`` (1e-9, 30, 10, 512).
+        If Newton's method from the transient fails (``transient_periods > 0``), the orbit is
+        sought by a route that cannot wander: a continuation in the forcing parameter from a
+        value where a cold start converges, then a correction at exactly the requested value
+        (:mod:`hybrid.continuation.coldstart`); ``route`` says which route found it.
 
     Returns
     -------
     PeriodicOrbit
-        ``converged`` is False (with the reason in ``message``) if Newton's
-        method failed, e.g. when the response grows without bound (no bounded
-        periodic orbit) or a run failed, and the fallback did not find it either
-        (what it tried is in ``message``).
+        ``status`` ``"failed"`` (``reason`` its code, ``message`` in words) if Newton's method
+        failed, e.g. when the response grows without bound (no bounded periodic orbit) or a run
+        failed, and the fallback did not find it either (what it tried is in ``message``).
 
     Raises
     ------
     ValueError
         Bad input (before any integration).
+    TypeError
+        A keyword that is a field of ``options`` or ``settings`` (the message says which).
     """
+    reject_keywords("periodic_orbit", unexpected, options=SolverOptions, settings=ShootingOptions)
+    settings = ShootingOptions() if settings is None else settings
     if isinstance(system, HybridSystem) and system.period is None:
-        return autonomous_orbit(
-            system,
-            params,
-            x0,
-            mode0,
-            transient_periods=max(transient_periods, 1),
-            options=options,
-            tol=tol,
-            max_iter=max_iter,
-            samples_per_period=samples_per_period,
-        )
-    orbit = shoot_orbit(
-        system,
-        params,
-        x0,
-        mode0,
-        t0=t0,
-        transient_periods=transient_periods,
-        options=options,
-        tol=tol,
-        max_iter=max_iter,
-        samples_per_period=samples_per_period,
-    )
-    if orbit.converged or transient_periods == 0 or deadline_passed():
+        if isinstance(settings, ShootingOptions) and settings.transient_periods < 1:
+            settings = replace(settings, transient_periods=1)
+        return autonomous_orbit(system, params, x0, mode0, options=options, settings=settings)
+    orbit = shoot_orbit(system, params, x0, mode0, t0=t0, options=options, settings=settings)
+    if orbit.converged or settings.transient_periods == 0 or deadline_passed():
         return orbit
     # Newton from the transient failed: a route that cannot wander.
-    return find_by_continuation(
-        system,
-        params,
-        orbit,
-        options=options,
-        tol=tol,
-        max_iter=max_iter,
-        transient_periods=transient_periods,
-        samples_per_period=samples_per_period,
-    )
+    return find_by_continuation(system, params, orbit, options=options, settings=settings)

@@ -39,13 +39,14 @@ class SpecialPoint:
     kind : str
         ``"fold"``, ``"period-doubling"``, ``"neimark-sacker"``, ``"mode-gained"``,
         ``"mode-lost"``, ``"grazing"``, ``"nonsmooth"`` or ``"unbounded"`` (the branch grows
-        without bound: it ends there).
+        without bound: it ends there); on a branch of equilibria ``"hopf"`` (a complex pair of
+        eigenvalues crosses the imaginary axis) or ``"real-eigenvalue"`` (a real one crosses 0).
     index : int
-        Index in ``Branch.points`` of the orbit at (or nearest to) the point.
+        Index in ``Branch.points`` of the orbit (or equilibrium) at (or nearest to) the point.
     parameter : float
         Parameter value at the point (the middle of ``interval`` if bracketed).
     amplitude : dict
-        ``max |x|`` per variable and output of that orbit.
+        ``max |x|`` per variable and output of that orbit (of an equilibrium: ``|x|`` per variable).
     description : str
         What changes there.
     status : str
@@ -70,6 +71,14 @@ class SpecialPoint:
     status: str = "located"
     accuracy: float = math.nan
     interval: tuple = field(default=(math.nan, math.nan))
+
+    def __repr__(self) -> str:
+        where = (
+            f"at {self.parameter:.10g} (located, +-{self.accuracy:.2g})"
+            if self.status == "located"
+            else f"in [{self.interval[0]:.10g}, {self.interval[1]:.10g}] (bracketed)"
+        )
+        return f"SpecialPoint({self.kind} {where}, point {self.index}: {self.description})"
 
 
 # ----------------------------------------------------------------------

@@ -37,9 +37,9 @@ def time_limit(seconds: float) -> Iterator[None]:
     """Deadline for every integration started inside the block (nested limits: the earliest wins).
 
     A run that reaches it stops with ``Status.TIME_LIMIT``; :func:`hybrid.periodic_orbit`
-    returns ``converged=False``, a continuation branch stops, and
-    :func:`hybrid.continuation.frc.frequency_response` returns what it has, each with the
-    reason in its message.
+    returns a failed orbit (``reason`` ``"budget"``), a continuation branch stops (``reason``
+    ``"budget"``), and :func:`hybrid.continuation.frc.frequency_response` returns what it has
+    (``reason`` ``"time-limit"``), each with the details in its message.
 
     Examples
     --------
@@ -143,7 +143,7 @@ class Budget:
             need = used * (self.t1 - self.t0) / (t - self.t0)
             if need > PROJECTION_FACTOR * self.max_steps:
                 raise BudgetExceeded(
-                    "steps",
+                    "projected",
                     f"step limit: at its rate so far this run needs about {need:.2g} IDA residual "
                     f"evaluations, over its budget SolverOptions.max_steps = {self.max_steps} "
                     f"(CLI --max-steps): stopped after {used} {self._where(t)}{where}",

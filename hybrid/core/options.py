@@ -1,17 +1,37 @@
-"""Solver options (frozen, validated at construction)."""
+"""Options of every computation (frozen, validated at construction), nested where they nest.
+
+* :class:`SolverOptions`: one integration (tolerances, budgets, the integrator); every function
+  that integrates takes it as ``options=``;
+* the algorithm's own options, as ``settings=``: :class:`NewtonOptions` (one Newton iteration:
+  an equilibrium, a Hopf point), :class:`ShootingOptions` (one periodic orbit: its Newton
+  options, transient and samples), :class:`ContinuationOptions` (a branch: steps, special
+  points, limits, and its corrector's Newton options).
+
+A wrong value raises :class:`ValueError` naming the class, the field and the value; a keyword
+that belongs in one of these objects, passed loose to a function, raises :class:`TypeError`
+saying which object takes it (:func:`reject_keywords`).
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 
-from .errors import InputError
+from .errors import InputError, InputTypeError
 
-__all__ = ["SolverOptions", "ContinuationOptions", "check_samples", "MIN_SAMPLES"]
+__all__ = [
+    "SolverOptions",
+    "NewtonOptions",
+    "ShootingOptions",
+    "ContinuationOptions",
+    "check_samples",
+    "reject_keywords",
+    "MIN_SAMPLES",
+]
 
 
-def _positive(name: str, value, *, allow_none: bool = False) -> None:
+def _positive(name: str, value, *, allow_none: bool = False, owner: str = "SolverOptions") -> None:
     if value is None and allow_none:
         return
     if (
@@ -20,22 +40,34 @@ def _positive(name: str, value, *, allow_none: bool = False) -> None:
         or not math.isfinite(value)
         or value <= 0
     ):
-        raise InputError(f"SolverOptions: `{name}` must be a finite number > 0, got {value!r}")
+        raise InputError(f"{owner}: `{name}` must be a finite number > 0, got {value!r}")
+
+
+def _integer(owner: str, name: str, value, lo: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+        raise InputError(f"{owner}: `{name}` must be an integer >= {lo}, got {value!r}")
+
+
+def _nested(owner: str, name: str, value, cls: type) -> None:
+    if not isinstance(value, cls):
+        raise InputTypeError(f"{owner}: `{name}` must be a {cls.__name__}, got {type(value).__name__}")
 
 
 #: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
 MIN_SAMPLES = 16
 
 
-def check_samples(samples_per_period) -> None:
-    """Refuse a number of samples per period that is not an integer >= :data:`MIN_SAMPLES`."""
+def check_samples(samples_per_period, owner: str = "") -> None:
+    """Refuse a number of samples per period that is not an integer >= :data:`MIN_SAMPLES`
+    (``owner``: the options class named in the message)."""
     if (
         isinstance(samples_per_period, bool)
         or not isinstance(samples_per_period, int)
         or samples_per_period < MIN_SAMPLES
     ):
         raise InputError(
-            f"`samples_per_period` must be an integer >= {MIN_SAMPLES} (the amplitudes are taken from the "
+            (f"{owner}: " if owner else "")
+            + f"`samples_per_period` must be an integer >= {MIN_SAMPLES} (the amplitudes are taken from the "
             f"samples), got {samples_per_period!r}"
         )
 
@@ -155,11 +187,71 @@ class SolverOptions:
 
 
 @dataclass(frozen=True)
-class ContinuationOptions:
-    """Options of :func:`hybrid.continue_orbits` and :func:`hybrid.frequency_response` (frozen, validated).
+class NewtonOptions:
+    """Tolerance and iteration cap of one Newton iteration (frozen, validated).
 
-    Steps are in scaled arclength: the state relative to its current size, the parameter
-    relative to the width of the range ``|p_range[1] - p_range[0]|``.
+    What ``tol`` bounds is the iteration's own measure, given by the function that takes it:
+    the residual of the period map relative to the state (periodic orbits, a continuation's
+    corrector), ``max |f|`` relative to ``max(1, max |x|)`` (equilibria), the bracket's width
+    relative to the parameter (:func:`hybrid.locate_hopf`'s secant).
+
+    Attributes
+    ----------
+    tol : float
+        Tolerance (> 0, dimensionless).
+    max_iter : int
+        Iterations allowed (>= 1).
+    """
+
+    tol: float = 1e-9
+    max_iter: int = 30
+
+    def __post_init__(self):
+        _positive("tol", self.tol, owner="NewtonOptions")
+        _integer("NewtonOptions", "max_iter", self.max_iter, 1)
+
+
+@dataclass(frozen=True)
+class ShootingOptions:
+    """Options of one periodic orbit (:func:`hybrid.periodic_orbit`, :func:`hybrid.autonomous_orbit`).
+
+    Attributes
+    ----------
+    newton : NewtonOptions
+        Newton's method on the period map: ``tol`` on ``max |P(x) - x| / max |x|``, ``max_iter``
+        iterations (default 1e-9, 30).
+    transient_periods : int
+        Forcing periods (autonomous orbits: period guesses, at least 1) simulated from the guess
+        before Newton's method (>= 0). ``0`` with a given ``t0``: the section is the guess itself.
+    samples_per_period : int
+        Samples of the returned one-period trajectory (>= :data:`MIN_SAMPLES`).
+    """
+
+    newton: NewtonOptions = NewtonOptions(tol=1e-9, max_iter=30)
+    transient_periods: int = 10
+    samples_per_period: int = 512
+
+    def __post_init__(self):
+        _nested("ShootingOptions", "newton", self.newton, NewtonOptions)
+        _integer("ShootingOptions", "transient_periods", self.transient_periods, 0)
+        check_samples(self.samples_per_period, "ShootingOptions")
+
+
+@dataclass(frozen=True)
+class ContinuationOptions:
+    """Options of a continuation (frozen, validated).
+
+    Taken by :func:`hybrid.continue_orbits`, :func:`hybrid.frequency_response` and
+    :func:`hybrid.sweep` (forced orbits) and by :func:`hybrid.orbit_branch` and
+    :func:`hybrid.hopf_branch` (autonomous orbits). The defaults below are the forced branches';
+    the autonomous ones default to
+    :data:`hybrid.continuation.autonomous.AUTONOMOUS_CONTINUATION` (``ds_min`` 1e-6, ``ds_max``
+    0.2, ``max_points`` 200, ``samples_per_period`` 256) and read only ``ds``, ``ds_min``,
+    ``ds_max``, ``max_points``, ``newton`` and ``samples_per_period``.
+
+    Forced branches step in scaled arclength: the state relative to its current size, the
+    parameter relative to the width of the range ``|p_range[1] - p_range[0]|``; autonomous
+    ones in the unknowns' own units (state, period, parameter).
 
     Attributes
     ----------
@@ -167,13 +259,13 @@ class ContinuationOptions:
         Initial, smallest and largest step (``ds_min <= ds <= ds_max``).
     max_points : int
         Points computed at most per branch (located special points not counted).
-    tol : float
-        Newton tolerance on the scaled residual of the period map.
+    newton : NewtonOptions
+        The corrector's Newton iteration: ``tol`` on the scaled residual of the period map,
+        ``max_iter`` iterations per step (default 1e-9, 8). (A forced branch's first orbit is
+        solved with the same ``tol`` and :data:`FIRST_ORBIT_MAX_ITER` iterations.)
     step_tol : float
         The corrector has converged when its scaled update is below this (or below the noise
         level of the map, ``10 cond rtol``, whichever is larger) and the residual below ``tol``.
-    max_iter : int
-        Corrector iterations per step.
     max_angle : float
         Largest turn [rad] of the branch's tangent (in scaled coordinates) from one point to the
         next: a sharper turn shrinks the next step, so that the curve is resolved where it bends
@@ -203,9 +295,8 @@ class ContinuationOptions:
     ds_min: float = 1e-7
     ds_max: float = 0.5
     max_points: int = 2000
-    tol: float = 1e-9
+    newton: NewtonOptions = NewtonOptions(tol=1e-9, max_iter=8)
     step_tol: float = 1e-9
-    max_iter: int = 8
     max_angle: float = 0.1
     locate: bool = True
     locate_tol: float = 1e-10
@@ -216,7 +307,8 @@ class ContinuationOptions:
     samples_per_period: int = 64
 
     def __post_init__(self):
-        for name in ("ds", "ds_min", "ds_max", "tol", "step_tol", "locate_tol", "max_growth", "max_angle"):
+        _nested("ContinuationOptions", "newton", self.newton, NewtonOptions)
+        for name in ("ds", "ds_min", "ds_max", "step_tol", "locate_tol", "max_growth", "max_angle"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
                 raise InputError(f"ContinuationOptions: `{name}` must be a number > 0, got {v!r}")
@@ -226,8 +318,8 @@ class ContinuationOptions:
             )
         if self.max_growth <= 1:
             raise InputError(f"ContinuationOptions: `max_growth` must be > 1, got {self.max_growth!r}")
-        check_samples(self.samples_per_period)
-        for name in ("max_points", "max_iter", "locate_max_iter", "max_failures"):
+        check_samples(self.samples_per_period, "ContinuationOptions")
+        for name in ("max_points", "locate_max_iter", "max_failures"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise InputError(f"ContinuationOptions: `{name}` must be an integer >= 1, got {v!r}")
@@ -236,3 +328,46 @@ class ContinuationOptions:
             raise InputError(f"ContinuationOptions: `transient_periods` must be an integer >= 0, got {v!r}")
         if not isinstance(self.locate, bool):
             raise InputError(f"ContinuationOptions: `locate` must be True or False, got {self.locate!r}")
+
+
+#: Newton iterations of a forced branch's first orbit (from its transient).
+FIRST_ORBIT_MAX_ITER = 30
+
+
+def _field_path(cls: type, name: str, value) -> str | None:
+    """``Cls(name=value)`` or ``Cls(inner=Inner(name=value))`` if ``name`` is a field of the options
+    class ``cls`` or of one nested in it, else None."""
+    for f in fields(cls):
+        if f.name == name and f.init:
+            return f"{cls.__name__}({name}={value!r})"
+    for f in fields(cls):
+        if is_dataclass(f.default) and not isinstance(f.default, type):
+            inner = _field_path(type(f.default), name, value)
+            if inner is not None:
+                return f"{cls.__name__}({f.name}={inner})"
+    return None
+
+
+def reject_keywords(function: str, keywords: Mapping, **where: type) -> None:
+    """Raise :class:`hybrid.core.errors.InputTypeError` (a :class:`TypeError`) for ``keywords`` that ``function`` does not take, saying for each
+    one that is a field of an options class in ``where`` (argument name -> class) what to pass
+    instead, e.g. ``options=SolverOptions(integrator='exact')``.
+
+    Raises
+    ------
+    hybrid.core.errors.InputTypeError
+        If ``keywords`` is not empty.
+    """
+    if not keywords:
+        return
+    hints = []
+    for name, value in keywords.items():
+        for arg, cls in where.items():
+            path = _field_path(cls, name, value)
+            if path is not None:
+                hints.append(f"`{name}` is an option: pass {arg}={path}")
+                break
+        else:
+            hints.append(f"`{name}` is not an argument of {function}()")
+    names = ", ".join(repr(k) for k in keywords)
+    raise InputTypeError(f"{function}() got unexpected keyword argument(s) {names}: " + "; ".join(hints))

@@ -319,6 +319,7 @@ class Run:
         t, y, mode = self.t0, y0, mode0
         start_mode = self.cs.modes[mode0].name
         status, message = Status.COMPLETED, "reached the end of the time span"
+        reason = ""  # the budget's kind, if one stopped the run
         self.budget = Budget(self.opt, self.t0, self.t1)
         try:
             mode, y, yp, disarmed = self.enter(mode, t, y, after_switch=False)
@@ -333,8 +334,9 @@ class Run:
             t, y, mode = self.current
         except BudgetExceeded as exc:
             t, y, mode = self.current
-            status = Status.STEP_LIMIT if exc.kind == "steps" else Status.TIME_LIMIT
-            message = exc.message + (self.why_slow(t, y, mode) if exc.kind == "steps" else "")
+            steps = exc.kind in ("steps", "projected")
+            status, reason = (Status.STEP_LIMIT if steps else Status.TIME_LIMIT), exc.kind
+            message = exc.message + (self.why_slow(t, y, mode) if steps else "")
         except _CallbackFailed as exc:
             raise exc.exc from None
         except (ArithmeticError, ValueError) as exc:
@@ -346,7 +348,7 @@ class Run:
                 f"evaluating the equations of mode `{self.cs.modes[mode].name}` near t={t!r} failed: "
                 f"{type(exc).__name__}: {exc}"
             )
-        return self.finish(t, y, mode, status, message, start_mode, throw)
+        return self.finish(t, y, mode, status, message, start_mode, throw, reason)
 
     def emit_samples_upto(self, t: float, state_at, inclusive: bool, many=None) -> None:
         """Record the samples before ``t`` (and at it, if ``inclusive``): each from ``state_at(ts)
@@ -585,7 +587,7 @@ class Run:
             self.cs.modes[mode], t, y, quad, period=self.cs.period, per_eval=per, max_step=self.max_step
         )
 
-    def finish(self, t, y, mode, status, message, start_mode, throw) -> Trajectory:
+    def finish(self, t, y, mode, status, message, start_mode, throw, reason: str = "") -> Trajectory:
         cs = self.cs
         if self.progress is not None and status == Status.COMPLETED:
             self.progress(1.0)
@@ -630,6 +632,7 @@ class Run:
             events_dropped=self.rec.events_dropped,
             kept_from=max(self.rec.cutoff, self.t0) if streamed else None,
             kept_from_mode=(self.rec.mode_after_dropped or start_mode) if streamed else None,
+            reason=reason,
         )
         if throw and status < 0:
             raise SimulationError(message)

@@ -13,6 +13,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from ..core.callbacks import Progress
 from ..core.errors import AlgebraicSolveError, InputError, InputTypeError
 from ..core.options import SolverOptions
 from ..integrators.registry import integrator
@@ -75,7 +76,7 @@ def simulate(
     options: SolverOptions | None = None,
     max_transitions: int = 1_000_000,
     throw: bool = True,
-    progress: Callable[[float], None] | None = None,
+    progress: Progress | None = None,
     sink: Sink | None = None,
     keep_last: float = 0.0,
 ) -> Trajectory:
@@ -111,8 +112,8 @@ def simulate(
         Raise :class:`SimulationError` if the run stops early; otherwise the
         failure is returned as data (``status < 0``, ``success=False``).
     progress : callable, optional
-        Called with the fraction of the time span done (0..1), at most about
-        200 times.
+        ``progress(fraction)`` with the fraction of the time span done (0..1), at most about
+        200 times (:data:`hybrid.core.callbacks.Progress`).
     sink : Sink, optional
         Receives every sample (in blocks, with the outputs) and every switch
         while the run goes on (see :class:`hybrid.Sink`; e.g. CSV writers), so

@@ -116,6 +116,10 @@ class Trajectory:
         Start of the kept window [s]; None: ``t_start`` (nothing dropped).
     kept_from_mode : str or None
         Mode at ``kept_from`` (before a switch at that instant); None: ``mode_start``.
+    reason : str
+        Which budget stopped the run (``Status.STEP_LIMIT``: ``"steps"`` or ``"projected"``;
+        ``Status.TIME_LIMIT``: ``"time"``), ``""`` otherwise
+        (:data:`hybrid.core.status.TRAJECTORY_REASONS`).
     """
 
     t: np.ndarray
@@ -142,6 +146,7 @@ class Trajectory:
     events_dropped: int = 0
     kept_from: float | None = None
     kept_from_mode: str | None = None
+    reason: str = ""
 
     @property
     def success(self) -> bool:

@@ -244,7 +244,8 @@ class Sensitivity:
             The run exhausted ``options.max_steps`` or ``max_wall_time``, or a
             :func:`hybrid.time_limit` ran out.
         hybrid.core.errors.GrazingSwitchError
-            A switch is tangent to the flow (grazing): its saltation matrix is undefined.
+            A switch is tangent to the flow (grazing): its saltation matrix is undefined (a
+            :class:`ZeroDivisionError`).
         hybrid.core.errors.IntegratorError
             IDA failed in the variational equations.
         """

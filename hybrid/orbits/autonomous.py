@@ -26,11 +26,13 @@ from __future__ import annotations
 import math
 import types
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ParameterOutOfDomain
-from ..core.options import SolverOptions, check_samples
+from ..core.options import ShootingOptions, SolverOptions, reject_keywords
+from ..core.status import SolveStatus
 from ..engine.simulate import initial_state
 from ..model.orbit_hints import period_guess
 from ..model.system import HybridSystem
@@ -137,9 +139,11 @@ class AutonomousSolver:
         return np.vstack([A, row])
 
     def solve(self, y: np.ndarray, mode: str, T: float, anchor=None):
-        """Newton from ``(y, mode, T)``; returns ``(y, T, evaluation, iterations, residual, message)``.
+        """Newton from ``(y, mode, T)``; returns ``(y, T, evaluation, iterations, residual, reason,
+        message)``.
 
-        ``message`` is empty on convergence. With the anchor phase, ``anchor = (y_ref, f_ref)``
+        ``reason`` (a code of :data:`hybrid.core.status.SOLVE_REASONS`) and ``message`` are empty
+        on convergence. With the anchor phase, ``anchor = (y_ref, f_ref)``
         (default: the guess and the flow there).
         """
         fm = self.fm
@@ -162,8 +166,9 @@ class AutonomousSolver:
             step = np.linalg.lstsq(A, -r, rcond=None)[0]
             if res <= self.tol and float(np.max(np.abs(step[: d.size]))) <= self.tol * scale:
                 if ev.end_mode != mode:
-                    return y, T, ev, it, res, f"the orbit ends in mode `{ev.end_mode}`, not `{mode}`"
-                return y, T, ev, it, res, ""
+                    msg = f"the orbit ends in mode `{ev.end_mode}`, not `{mode}`"
+                    return y, T, ev, it, res, "mode-mismatch", msg
+                return y, T, ev, it, res, "", ""
             if it == self.max_iter:
                 break
             lam, r0 = 1.0, float(np.linalg.norm(r))
@@ -188,6 +193,7 @@ class AutonomousSolver:
                     ev,
                     it,
                     res,
+                    "no-decrease",
                     (
                         f"Newton's method found no decrease of the residual ({it} iterations, residual {res:.3g})"
                     ),
@@ -199,6 +205,7 @@ class AutonomousSolver:
             ev,
             self.max_iter,
             res,
+            "not-converged",
             f"Newton's method did not converge ({self.max_iter} iterations, residual {res:.3g})",
         )
 
@@ -215,11 +222,9 @@ def autonomous_orbit(
     *,
     period: float | None = None,
     phase: str = "auto",
-    transient_periods: int = 10,
     options: SolverOptions | None = None,
-    tol: float = 1e-9,
-    max_iter: int = 30,
-    samples_per_period: int = 512,
+    settings: ShootingOptions | None = None,
+    **unexpected,
 ) -> PeriodicOrbit:
     """Periodic orbit of an autonomous model (no forcing): state, period, monodromy and multipliers.
 
@@ -239,23 +244,19 @@ def autonomous_orbit(
         ``"auto"`` (the model's ``[orbit] section`` if declared, else ``"anchor"``), ``"anchor"``
         (a hyperplane orthogonal to the flow at a point of the transient), or a transition's name
         (the orbit starts just after that switch).
-    transient_periods : int
-        Length of the transient before Newton's method, in period guesses (>= 1).
     options : SolverOptions, optional
         Tolerances (default :data:`hybrid.ORBIT_OPTIONS`, rtol 1e-10).
-    tol : float
-        Newton tolerance, relative to ``max |y|``.
-    max_iter : int
-        Newton iterations allowed.
-    samples_per_period : int
-        Samples of the returned one-period trajectory.
+    settings : ShootingOptions, optional
+        Newton's method (tolerance relative to ``max |y|``, iterations), the transient before it
+        in period guesses (``transient_periods`` >= 1) and the samples of the returned
+        one-period trajectory; default ``ShootingOptions()``.
 
     Returns
     -------
     PeriodicOrbit
         ``period`` is the computed period [s], ``t0`` is 0; ``multiplier_kinds`` labels the
-        trivial multiplier 1 ``"trivial"``. ``converged`` False with the reason in ``message``
-        if no orbit was found.
+        trivial multiplier 1 ``"trivial"``. ``status`` ``"failed"`` with its ``reason`` and
+        ``message`` if no orbit was found.
 
     Raises
     ------
@@ -270,9 +271,11 @@ def autonomous_orbit(
     >>> round(orbit.period, 6)   # 2 (Fs - Fk) / (k v_b) + (pi + 2 atan(v_b / (omega d))) / omega
     6.712389
     """
+    reject_keywords("autonomous_orbit", unexpected, options=SolverOptions, settings=ShootingOptions)
     options = ORBIT_OPTIONS if options is None else options
-    check_orbit_inputs(system, options, tol, max_iter, transient_periods, forced=False)
-    check_samples(samples_per_period)
+    settings = ShootingOptions() if settings is None else settings
+    check_orbit_inputs(system, options, settings, forced=False)
+    samples_per_period = settings.samples_per_period
     phase = resolve_phase(system, phase)
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
@@ -282,40 +285,55 @@ def autonomous_orbit(
     Tg = time_scale(system, params, period)
     fm = FlowMap(system, params, options, Tg)
     y = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
-    solver = AutonomousSolver(fm, phase, tol, max_iter)
+    solver = AutonomousSolver(fm, phase, settings.newton.tol, settings.newton.max_iter)
     try:
-        start = initial_guess(fm, phase, y, mode0, Tg, transient_periods)
-        if isinstance(start, str):
-            return failed(fm, y, mode0, Tg, 0, start)
+        start = initial_guess(fm, phase, y, mode0, Tg, settings.transient_periods)
+        if isinstance(start, GuessFailed):
+            return failed(fm, y, mode0, Tg, 0, start.message, start.reason)
         y, mode, T = start
-        y, T, ev, it, res, msg = solver.solve(y, mode, T)
-        if msg:
-            return failed(fm, y, mode, T, it, msg, res)
+        y, T, ev, it, res, reason, msg = solver.solve(y, mode, T)
+        if reason:
+            return failed(fm, y, mode, T, it, msg, reason, res)
         return finish(solver, y, mode, T, ev, it, res, samples_per_period)
     except BudgetExceeded as exc:
-        return failed(fm, y, mode0, Tg, 0, str(exc))
+        return failed(fm, y, mode0, Tg, 0, str(exc), "budget")
     except GrazingSwitchError as exc:
-        return failed(fm, y, mode0, Tg, 0, f"{exc}; at a grazing, try a nearby parameter value")
+        return failed(fm, y, mode0, Tg, 0, f"{exc}; at a grazing, try a nearby parameter value", "grazing")
     except ZeroDivisionError as exc:  # the model's equations (e.g. a reset's derivative): not a grazing
         return failed(
-            fm, y, mode0, Tg, 0, f"evaluating the model's equations failed: ZeroDivisionError: {exc}"
+            fm,
+            y,
+            mode0,
+            Tg,
+            0,
+            f"evaluating the model's equations failed: ZeroDivisionError: {exc}",
+            "evaluation-failed",
         )
     except RuntimeError as exc:
-        return failed(fm, y, mode0, Tg, 0, str(exc))
+        return failed(fm, y, mode0, Tg, 0, str(exc), "run-failed")
+
+
+class GuessFailed(NamedTuple):
+    """What :func:`initial_guess` returns where the transient gives no start on the section."""
+
+    reason: str  # a code of hybrid.core.status.SOLVE_REASONS
+    message: str
 
 
 def initial_guess(fm: FlowMap, phase: str, y, mode0: str, Tg: float, periods: int):
-    """``(y, mode, T)`` on the section from a transient of ``periods`` period guesses, or a reason (str)."""
+    """``(y, mode, T)`` on the section from a transient of ``periods`` period guesses, or a
+    :class:`GuessFailed`."""
     n_samples = 64 * periods
     tr = fm.run(y, mode0, periods * Tg, samples=n_samples)
     if not tr.success:
-        return f"transient failed: {tr.message}"
+        return GuessFailed("transient-failed", f"transient failed: {tr.message}")
     if phase != "anchor":
         hits = [e for e in tr.events if e.guard == phase]
         if not hits:
-            return (
+            return GuessFailed(
+                "no-section-crossing",
                 f"the transient ({periods} x {Tg:.6g} s) never crossed the section `{phase}`: no stick-slip "
-                "cycle through it from this start (another start, x0, or phase='anchor')"
+                "cycle through it from this start (another start, x0, or phase='anchor')",
             )
         last = hits[-1]
         chain = [e for e in tr.events if e.t == last.t and (e is last or e.chained)]
@@ -339,10 +357,10 @@ def initial_guess(fm: FlowMap, phase: str, y, mode0: str, Tg: float, periods: in
     return y_ref, m, Tg
 
 
-def failed(fm: FlowMap, y, mode, T, it, msg, res=math.inf) -> PeriodicOrbit:
-    """The failed result (``converged`` False, the reason in ``message``)."""
+def failed(fm: FlowMap, y, mode, T, it, msg: str, reason: str, res=math.inf) -> PeriodicOrbit:
+    """The failed result (``status`` ``"failed"``, ``reason`` its code, ``message`` in words)."""
     view = types.SimpleNamespace(system=fm.system, names=fm.names, params=fm.params, period=T, nfev=fm.nfev)
-    return failed_orbit(view, y, mode, 0.0, it, res, msg)
+    return failed_orbit(view, y, mode, 0.0, it, res, msg, reason)
 
 
 def classify(mult: np.ndarray, vecs: np.ndarray, f0: np.ndarray, n_struct: int, mtol: float):
@@ -440,7 +458,7 @@ def finish(solver: AutonomousSolver, y, mode, T, ev: Evaluation, it, res, sample
         multipliers=mult,
         multiplier_kinds=kinds,
         stability=verdict,
-        converged=True,
+        status=SolveStatus.CONVERGED,
         residual=res,
         iterations=it,
         condition=cond,

@@ -23,11 +23,26 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import ConvergenceError, InputError, InputTypeError, ModelError
+from ..core.options import NewtonOptions
+from ..core.status import SolveStatus
 from ..engine.simulate import initial_state
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 
-__all__ = ["Equilibrium", "equilibrium", "locate_hopf", "reduced_jacobian"]
+__all__ = [
+    "Equilibrium",
+    "HopfPoint",
+    "equilibrium",
+    "locate_hopf",
+    "reduced_jacobian",
+    "EQUILIBRIUM_NEWTON",
+    "HOPF_SECANT",
+]
+
+#: Newton options of :func:`equilibrium` by default: ``max |f| <= 1e-12 max(1, max |x|)``.
+EQUILIBRIUM_NEWTON = NewtonOptions(tol=1e-12, max_iter=50)
+#: Secant options of :func:`locate_hopf` by default: the bracket within 1e-13 of the parameter.
+HOPF_SECANT = NewtonOptions(tol=1e-13, max_iter=60)
 
 
 @dataclass(frozen=True)
@@ -54,10 +69,15 @@ class Equilibrium:
     admissible : bool
         No guard of the mode has left its admissible side there (the steady state exists in
         the hybrid system, not only in the mode's equations).
-    converged : bool
+    status : SolveStatus
+        ``"converged"`` or ``"failed"`` (:attr:`converged` says the same as a bool).
     residual : float
         ``max |f|`` at ``x``.
     message : str
+    reason : str
+        Why it failed, a code of :data:`hybrid.core.status.SOLVE_REASONS`
+        (``"not-converged"``, ``"diverged"``, ``"solve-failed"``, ``"singular"``); ``""`` if
+        converged.
     """
 
     system: HybridSystem
@@ -69,9 +89,15 @@ class Equilibrium:
     eigenvalues: np.ndarray
     stability: str
     admissible: bool
-    converged: bool
+    status: SolveStatus
     residual: float
     message: str
+    reason: str = ""
+
+    @property
+    def converged(self) -> bool:
+        """True if :attr:`status` is ``"converged"``."""
+        return self.status == SolveStatus.CONVERGED
 
     @property
     def stable(self) -> bool | None:
@@ -95,6 +121,16 @@ class Equilibrium:
             "residual": self.residual,
             "message": self.message,
         }
+
+    def __repr__(self) -> str:
+        if not self.converged:
+            return f"Equilibrium({self.system.name}, mode {self.mode}, failed ({self.reason}))"
+        top = complex(self.eigenvalues[0]) if self.eigenvalues.size else complex("nan")
+        return (
+            f"Equilibrium({self.system.name}, mode {self.mode}, {self.stability}"
+            + ("" if self.admissible else ", not admissible")
+            + f", leading eigenvalue {top.real:.6g}{top.imag:+.6g}j 1/s, residual {self.residual:.2g})"
+        )
 
 
 def _unknowns(system: HybridSystem, cm) -> np.ndarray:
@@ -127,8 +163,7 @@ def equilibrium(
     mode: str,
     x0=None,
     *,
-    tol: float = 1e-12,
-    max_iter: int = 50,
+    settings: NewtonOptions | None = None,
 ) -> Equilibrium:
     """Equilibrium of ``mode`` by Newton's method with the exact Jacobian.
 
@@ -141,9 +176,9 @@ def equilibrium(
         The mode whose steady state is sought.
     x0 : mapping or array_like, optional
         Guess (default all 0).
-    tol : float
-        Tolerance on ``max |f|`` relative to ``max(1, max |x|)`` [1/s].
-    max_iter : int
+    settings : NewtonOptions, optional
+        ``tol`` on ``max |f|`` relative to ``max(1, max |x|)`` [1/s], ``max_iter`` iterations
+        (default :data:`EQUILIBRIUM_NEWTON`: 1e-12, 50).
 
     Returns
     -------
@@ -158,6 +193,9 @@ def equilibrium(
 
     if not isinstance(system, HybridSystem):
         raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
+    settings = EQUILIBRIUM_NEWTON if settings is None else settings
+    if not isinstance(settings, NewtonOptions):
+        raise InputTypeError(f"`settings` must be a NewtonOptions, got {type(settings).__name__}")
     system.mode(mode)
     params = system.parameter_values(params)
     cs = CompiledSystem(system, params)
@@ -165,12 +203,12 @@ def equilibrium(
         raise ModelError(f"model `{system.name}` depends on t: equilibria need an autonomous model")
     cm = cs.modes[cs.mode_id(mode)]
     y = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode)
-    return _solve(system, params, cm, y, tol, max_iter)
+    return _solve(system, params, cm, y, settings.tol, settings.max_iter)
 
 
 def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
     d = _unknowns(system, cm)
-    msg = ""
+    msg, reason = "", ""
     res = math.inf
     try:
         y = cm.solve_algebraic(0.0, y)
@@ -182,20 +220,22 @@ def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
                 break
             if it == max_iter:
                 msg = f"Newton's method did not converge ({max_iter} iterations, max |f| = {res:.3g})"
+                reason = "not-converged"
                 break
             y = y.copy()
             y[d] -= np.linalg.lstsq(A, f, rcond=None)[0]
             y = cm.solve_algebraic(0.0, y)
             if not np.all(np.isfinite(y)):
-                msg = "Newton's iterates diverged"
+                msg, reason = "Newton's iterates diverged", "diverged"
                 break
     except (RuntimeError, np.linalg.LinAlgError, ArithmeticError) as exc:
-        msg = f"Newton's method failed: {exc}"
+        msg, reason = f"Newton's method failed: {exc}", "solve-failed"
         A = np.full((d.size, d.size), np.nan)
     if not msg and d.size:
         sv = np.linalg.svd(A, compute_uv=False)
         if sv[-1] <= 1e-12 * max(sv[0], 1.0):
             msg = "the Jacobian is singular there: not an isolated equilibrium (a continuum of steady states)"
+            reason = "singular"
     ev = np.linalg.eigvals(A) if np.all(np.isfinite(A)) else np.full(d.size, np.nan, dtype=complex)
     ev = ev[np.argsort(-ev.real, kind="stable")]
     h = cm.guard_values(0.0, y)
@@ -214,10 +254,50 @@ def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
         eigenvalues=ev,
         stability=_verdict(ev, 1e-12) if not msg else "unknown",
         admissible=admissible,
-        converged=not msg,
+        status=SolveStatus.FAILED if reason else SolveStatus.CONVERGED,
         residual=res,
         message=msg or "converged",
+        reason=reason,
     )
+
+
+@dataclass(frozen=True)
+class HopfPoint:
+    """Where an equilibrium's largest real part crosses 0 (the result of :func:`locate_hopf`).
+
+    Attributes
+    ----------
+    kind : str
+        ``"hopf"`` (a complex pair crosses the imaginary axis) or ``"real-eigenvalue"`` (a real
+        eigenvalue crosses 0), the kinds of :class:`hybrid.SpecialPoint` a branch records.
+    parameter : float
+        The parameter's value there.
+    equilibrium : Equilibrium
+        The equilibrium at ``parameter`` (the start of :func:`hybrid.hopf_branch`).
+    frequency : float
+        ``|Im lambda|`` of the critical eigenvalue [rad/s] (0 for a real one).
+    status : str
+        ``"located"`` (the bracket closed to the tolerance) or ``"bracketed"`` (the iterations ran
+        out first: the point lies in ``interval``).
+    accuracy : float
+        Bound on the error of ``parameter`` (the last bracket's width).
+    interval : tuple of float
+        The last bracket.
+    """
+
+    kind: str
+    parameter: float
+    equilibrium: Equilibrium
+    frequency: float
+    status: str
+    accuracy: float
+    interval: tuple
+
+    def __repr__(self) -> str:
+        return (
+            f"HopfPoint({self.kind} at {self.parameter:.12g} ({self.status}, +-{self.accuracy:.2g}), "
+            f"frequency {self.frequency:.9g} rad/s)"
+        )
 
 
 def locate_hopf(
@@ -225,28 +305,49 @@ def locate_hopf(
     params: Mapping[str, float],
     mode: str,
     parameter: str,
-    bracket: tuple[float, float],
+    p_range: tuple[float, float],
     x0=None,
     *,
-    tol: float = 1e-13,
-    max_iter: int = 60,
-) -> tuple[float, Equilibrium]:
-    """The parameter value in ``bracket`` where the equilibrium's largest real part crosses 0.
+    settings: NewtonOptions | None = None,
+) -> HopfPoint:
+    """The parameter value in ``p_range`` where the equilibrium's largest real part crosses 0.
 
     Secant method with the Illinois modification on ``max Re(lambda)(p)``, each value an
     equilibrium solved from the previous one.
 
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping of str to float
+        All parameter values.
+    mode : str
+    parameter : str
+        The parameter that moves.
+    p_range : (float, float)
+        A bracket: the largest real part has opposite signs at its ends.
+    x0 : mapping or array_like, optional
+        Guess of the equilibrium at ``p_range[0]``.
+    settings : NewtonOptions, optional
+        ``tol``: the bracket's width relative to ``max(1, |p|)``; ``max_iter`` secant steps
+        (default :data:`HOPF_SECANT`: 1e-13, 60).
+
     Returns
     -------
-    (float, Equilibrium)
-        The value and the equilibrium there (a Hopf point if its critical eigenvalues are a
-        complex pair: ``abs(eigenvalues[0].imag) > 0``).
+    HopfPoint
+        The value, the equilibrium there, the kind (``"hopf"`` if the critical eigenvalues are a
+        complex pair) and its frequency.
 
     Raises
     ------
     ValueError
-        The largest real part does not change sign over ``bracket``.
+        The largest real part does not change sign over ``p_range``.
+    RuntimeError
+        No equilibrium at one of the secant's values.
     """
+    settings = HOPF_SECANT if settings is None else settings
+    if not isinstance(settings, NewtonOptions):
+        raise InputTypeError(f"`settings` must be a NewtonOptions, got {type(settings).__name__}")
+    tol, max_iter = settings.tol, settings.max_iter
     cache: dict[float, Equilibrium] = {}
     guess = [x0]
 
@@ -258,7 +359,7 @@ def locate_hopf(
         cache[p] = eq
         return float(eq.eigenvalues[0].real)
 
-    a, b = (float(v) for v in bracket)
+    a, b = (float(v) for v in p_range)
     ga, gb = g(a), g(b)
     if ga * gb > 0:
         raise InputError(
@@ -266,6 +367,7 @@ def locate_hopf(
             f"({ga:.3g}, {gb:.3g})"
         )
     side = 0
+    located = False
     for _ in range(max_iter):
         c = b - gb * (b - a) / (gb - ga)
         gc = g(c)
@@ -277,5 +379,17 @@ def locate_hopf(
             side = 1
         b, gb = c, gc
         if abs(b - a) <= tol * max(1.0, abs(b)) or gc == 0.0:
+            located = True
             break
-    return b, cache[b]
+    exact = gb == 0.0  # the secant landed on the crossing itself
+    eq = cache[b]
+    om = abs(float(eq.eigenvalues[0].imag))
+    return HopfPoint(
+        kind="hopf" if om > 1e-9 else "real-eigenvalue",
+        parameter=b,
+        equilibrium=eq,
+        frequency=om,
+        status="located" if located else "bracketed",
+        accuracy=0.0 if exact else abs(b - a),
+        interval=(min(a, b), max(a, b)),
+    )

@@ -155,7 +155,7 @@ class FlowMap:
         tr = run_compiled(self.cs, self.options, 0.0, t1, y, self.cs.mode_id(mode0), grid, bool(samples))
         self.nfev += tr.nfev
         if tr.status in (Status.STEP_LIMIT, Status.TIME_LIMIT):
-            raise BudgetExceeded("steps" if tr.status == Status.STEP_LIMIT else "time", tr.message)
+            raise BudgetExceeded(tr.reason, tr.message)
         return tr
 
     def _fundamental(self, y0, mode0, t1, events) -> np.ndarray:

@@ -111,15 +111,18 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     try:
         y = nw.project(t0, np.array(y, dtype=float))
     except Exception as exc:  # AlgebraicSolveError
-        return failed_orbit(shooter, y, mode0, t0, 0, math.inf, f"guess is not consistent: {exc}")
+        return failed_orbit(
+            shooter, y, mode0, t0, 0, math.inf, f"guess is not consistent: {exc}", "inconsistent-guess"
+        )
     scale0 = state_scale(y, d)
     res_norm = math.inf
 
-    def fail(why: str) -> PeriodicOrbit:
-        """The failed result at the current iterate."""
-        return failed_orbit(shooter, y, mode0, t0, it, res_norm, why)
+    def fail(why: str, reason: str) -> PeriodicOrbit:
+        """The failed result at the current iterate (``reason``: its code)."""
+        return failed_orbit(shooter, y, mode0, t0, it, res_norm, why, reason)
 
     note = ""
+    reason = ""  # a code if the orbit is not accepted although its residual met tol
     family = False
     it = 0
     rephased = 0
@@ -148,7 +151,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
         if sh is coarse and not tr.success:
             return None
         if not tr.success:
-            return fail(f"run failed at iteration {it}: {tr.message}")
+            return fail(f"run failed at iteration {it}: {tr.message}", "run-failed")
         r = nw.residual(tr, y)
         scale = state_scale(y, d)
         res_norm = float(np.max(np.abs(r))) / scale
@@ -211,24 +214,28 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 tr, J, M_y = None, None, None
                 continue
             note = "the mode at t0 + T differs from the section's mode; "
+            reason = "mode-mismatch"
             break
         if it >= max_iter or stalled:
             grows = scale > 1e3 * max(scale0, 1e-300)
             if grows:
-                why = "the response grows without bound: no bounded periodic orbit"
+                why, code = "the response grows without bound: no bounded periodic orbit", "unbounded"
             elif resonant and res_norm > 1e-4:
                 why = (
                     "no bounded periodic orbit near the guess: a Floquet multiplier is 1 and the mismatch "
                     "P(x) - x lies outside the range of I - M (a resonance: the response grows by the same "
                     "amount every period); if something limits that growth at larger amplitude, " + HINT
                 )
+                code = "resonance"
             else:
                 why = "Newton's method did not converge; " + _noisy(J, res_norm, tol, noise_rtol) + HINT
-            return fail(f"{why} ({it} iterations, residual {res_norm:.3g})")
+                code = "not-converged"
+            return fail(f"{why} ({it} iterations, residual {res_norm:.3g})", code)
         if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(scale0, 1.0):
             return fail(
                 "the response grows without bound: no bounded periodic orbit "
                 f"(max |x| = {scale:.3g} after {it} Newton iterations)",
+                "unbounded",
             )
         it += 1
         while True:  # a Newton direction, then an Armijo line search along it
@@ -311,13 +318,12 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                     "Newton's method found no decrease of the residual along its direction (the map "
                     f"is not smooth here, or not accurate enough for the tolerance); "
                     f"{_noisy(J, res_norm, tol, noise_rtol)}{HINT} ({it} iterations, residual {res_norm:.3g})",
+                    "no-decrease",
                 )
             # Far from the orbit (a transient's guess): take the best point tried, uphill, and say so.
             found = best
             if found is None:
-                return fail(
-                    f"every run along the Newton step failed ({HINT})",
-                )
+                return fail(f"every run along the Newton step failed ({HINT})", "run-failed")
             uphill += 1
         y_new, tr, lam = found
         sampled = not isinstance(tr, DeferredTrajectory) and ahead is not None and lam == 1.0
@@ -332,9 +338,22 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
         y, M_y, pending = y_new, None, None
     if uphill:
         note += f"{uphill} Newton step(s) far from the orbit accepted without a decrease of the residual; "
+        reason = reason or "uphill"
     at[:] = [y, mode0, t0, it]
     return finish_orbit(
-        shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=tr if sampled else None, M=M_y
+        shooter,
+        nw,
+        y,
+        mode0,
+        t0,
+        it,
+        res_norm,
+        tol,
+        samples,
+        note,
+        tr=tr if sampled else None,
+        M=M_y,
+        reason=reason,
     )
 
 

@@ -15,8 +15,9 @@ import numpy as np
 
 from ..core.balance import balance
 from ..core.errors import InputError, InputTypeError, ModelError
-from ..core.options import SolverOptions
+from ..core.options import ShootingOptions, SolverOptions
 from ..core.scalar import bounded_minimum
+from ..core.status import SolveStatus
 from ..engine.trajectory import Trajectory, sampled_trajectory
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
@@ -74,8 +75,9 @@ class PeriodicOrbit:
         ``"stable"`` (all Floquet multipliers inside the unit circle),
         ``"unstable"`` (one outside) or ``"neutral"`` (none outside, one on the
         circle, e.g. the undamped linear response of a stuck element).
-    converged : bool
-        Newton's method met its tolerance.
+    status : SolveStatus
+        ``"converged"`` (Newton's method met its tolerance) or ``"failed"``; :attr:`converged`
+        says the same as a bool.
     residual : float
         ``max |P(x0) - x0|`` relative to ``max |x0|`` (differential variables).
     iterations : int
@@ -98,6 +100,9 @@ class PeriodicOrbit:
         :func:`hybrid.periodic_orbit`: Newton from the transient failed, a continuation in the
         forcing parameter from that value reached the orbit, see :mod:`hybrid.continuation.coldstart`), or
         ``"none"`` (not found).
+    reason : str
+        Why it failed, a code of :data:`hybrid.core.status.SOLVE_REASONS` (``"budget"``,
+        ``"grazing"``, ``"not-converged"``, ...); ``""`` if converged.
     """
 
     system: HybridSystem
@@ -117,7 +122,7 @@ class PeriodicOrbit:
     multipliers: np.ndarray
     multiplier_kinds: tuple
     stability: str
-    converged: bool
+    status: SolveStatus
     residual: float
     iterations: int
     condition: float
@@ -126,6 +131,12 @@ class PeriodicOrbit:
     energy: dict = field(default_factory=dict)
     nfev: int = 0
     route: str = "newton"
+    reason: str = ""
+
+    @property
+    def converged(self) -> bool:
+        """True if :attr:`status` is ``"converged"``."""
+        return self.status == SolveStatus.CONVERGED
 
     @property
     def stable(self) -> bool | None:
@@ -176,11 +187,16 @@ class PeriodicOrbit:
         }
 
     def __repr__(self) -> str:
+        if not self.converged:
+            return (
+                f"PeriodicOrbit({self.system.name}, T={self.period:.6g} s, failed ({self.reason}) "
+                f"after {self.iterations} iterations, residual {self.residual:.2g})"
+            )
         mu = ", ".join(f"{abs(z):.6g}" for z in self.floquet_multipliers[:4])
         return (
             f"PeriodicOrbit({self.system.name}, T={self.period:.6g} s, {self.stability}, "
             f"{self.transitions_per_period} switches/period, |multipliers| {mu}, "
-            f"{'converged' if self.converged else 'NOT converged'}, residual {self.residual:.2g})"
+            f"converged, residual {self.residual:.2g})"
         )
 
 
@@ -479,9 +495,7 @@ def balanced(J: np.ndarray, ratio: float = BALANCE_RATIO) -> tuple[np.ndarray, n
     return J * s[None, :] / s[:, None], s
 
 
-def check_orbit_inputs(
-    system: HybridSystem, options, tol: float, max_iter: int, transient_periods: int, *, forced: bool
-) -> None:
+def check_orbit_inputs(system: HybridSystem, options, settings, *, forced: bool) -> None:
     """Refuse bad arguments of :func:`hybrid.periodic_orbit` (``forced``) or
     :func:`hybrid.autonomous_orbit` before any integration (``TypeError``/``ValueError``)."""
     if not isinstance(system, HybridSystem):
@@ -494,18 +508,19 @@ def check_orbit_inputs(
         )
     if not isinstance(options, SolverOptions):
         raise InputTypeError(f"`options` must be a SolverOptions, got {type(options).__name__}")
-    if not (isinstance(tol, int | float) and math.isfinite(tol) and tol > 0):
-        raise InputError(f"`tol` must be a number > 0, got {tol!r}")
+    if not isinstance(settings, ShootingOptions):
+        raise InputTypeError(f"`settings` must be a ShootingOptions, got {type(settings).__name__}")
     # a transient is where an autonomous orbit's section and period come from: at least one
-    for name, v, lo in (
-        ("max_iter", max_iter, 1),
-        ("transient_periods", transient_periods, 0 if forced else 1),
-    ):
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise InputError(f"`{name}` must be an integer >= {lo}, got {v!r}")
+    if not forced and settings.transient_periods < 1:
+        raise InputError(
+            "ShootingOptions: `transient_periods` must be >= 1 for an autonomous orbit (its section and "
+            f"period come from the transient), got {settings.transient_periods!r}"
+        )
 
 
-def failed_orbit(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
+def failed_orbit(shooter, y, mode0, t0, it, res, msg: str, reason: str) -> PeriodicOrbit:
+    """The failed result at the section state ``y`` (``reason``: a code of
+    :data:`hybrid.core.status.SOLVE_REASONS`, ``msg`` the same in words)."""
     nan = float("nan")
     names = tuple(n for n in shooter.names if n not in shooter.system.quadratures)
     ns = len(names)
@@ -527,7 +542,7 @@ def failed_orbit(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
         multipliers=np.full(ns, nan, dtype=complex),
         multiplier_kinds=("floquet",) * ns,
         stability="unknown",
-        converged=False,
+        status=SolveStatus.FAILED,
         residual=float(res),
         iterations=it,
         condition=nan,
@@ -535,13 +550,19 @@ def failed_orbit(shooter, y, mode0, t0, it, res, msg) -> PeriodicOrbit:
         message=msg,
         nfev=shooter.nfev,
         route="none",
+        reason=reason,
     )
 
 
 def finish_orbit(
-    shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None, M=None
+    shooter, nw, y, mode0, t0, it, res_norm, tol, samples, note, tr=None, M=None, reason: str = ""
 ) -> PeriodicOrbit:
-    """Build the orbit from its section state (``tr``, ``M``: its sampled run and monodromy, if known)."""
+    """Build the orbit from its section state (``tr``, ``M``: its sampled run and monodromy, if known).
+
+    ``note`` (text) heads its message; ``reason`` (a code of
+    :data:`hybrid.core.status.SOLVE_REASONS`) marks a solution that is not accepted although its
+    residual met ``tol`` (e.g. ``"mode-mismatch"``).
+    """
     sys_ = shooter.system
     names = shooter.names
     tr = shooter._run(y, mode0, t0, samples) if tr is None else sampled_trajectory(tr)
@@ -617,7 +638,9 @@ def finish_orbit(
             if not shooter.integrator.exact
             else f"cond x rounding = {err:.2g} (relative); "
         )
-    conv = res_norm <= tol and not note
+    if not reason and not res_norm <= tol:
+        reason = "not-converged"
+    conv = not reason
     msg += "converged" if conv else "converged in the residual, see above"
     return PeriodicOrbit(
         system=sys_,
@@ -637,7 +660,7 @@ def finish_orbit(
         multipliers=mult,
         multiplier_kinds=kinds,
         stability=verdict,
-        converged=conv,
+        status=SolveStatus.CONVERGED if conv else SolveStatus.FAILED,
         residual=res_norm,
         iterations=it,
         condition=cond,
@@ -645,4 +668,5 @@ def finish_orbit(
         message=msg.strip("; "),
         energy=energy,
         nfev=shooter.nfev,
+        reason=reason,
     )

@@ -155,7 +155,7 @@ class Shooter:
         )
         self.nfev += tr.nfev
         if tr.status in (Status.STEP_LIMIT, Status.TIME_LIMIT):
-            raise BudgetExceeded("steps" if tr.status == Status.STEP_LIMIT else "time", tr.message)
+            raise BudgetExceeded(tr.reason, tr.message)
         return tr
 
     def monodromy(self, tr: Trajectory) -> np.ndarray:

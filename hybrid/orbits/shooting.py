@@ -33,7 +33,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError
-from ..core.options import SolverOptions, check_samples
+from ..core.options import ShootingOptions, SolverOptions
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
 from ..model.system import HybridSystem
@@ -63,11 +63,8 @@ def shoot_orbit(
     mode0: str | None = None,
     *,
     t0: float | None = None,
-    transient_periods: int = 10,
     options: SolverOptions | None = None,
-    tol: float = 1e-9,
-    max_iter: int = 30,
-    samples_per_period: int = 512,
+    settings: ShootingOptions | None = None,
 ) -> PeriodicOrbit:
     """Periodic orbit by Newton shooting from a guess, with its monodromy and Floquet multipliers.
 
@@ -80,7 +77,8 @@ def shoot_orbit(
     Returns
     -------
     PeriodicOrbit
-        ``converged`` is False (with the reason in ``message``) where Newton's method failed.
+        ``status`` ``"failed"`` (``reason`` its code, ``message`` in words) where Newton's method
+        failed.
 
     Raises
     ------
@@ -88,8 +86,9 @@ def shoot_orbit(
         Bad input (before any integration).
     """
     options = ORBIT_OPTIONS if options is None else options
-    check_orbit_inputs(system, options, tol, max_iter, transient_periods, forced=True)
-    check_samples(samples_per_period)
+    settings = ShootingOptions() if settings is None else settings
+    check_orbit_inputs(system, options, settings, forced=True)
+    transient_periods = settings.transient_periods
     mode0 = mode0 if mode0 is not None else system.initial_mode
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
@@ -103,7 +102,16 @@ def shoot_orbit(
         raise InputError(f"`t0` must be finite, got {t0!r}")
     check_time_range(shooter.cs, options, start, start + (transient_periods + 1) * shooter.period)
     check_initial_state(shooter.cs, mode0, start, y)
-    return solve_orbit(shooter, y, mode0, start, transient_periods, tol, max_iter, samples_per_period)
+    return solve_orbit(
+        shooter,
+        y,
+        mode0,
+        start,
+        transient_periods,
+        settings.newton.tol,
+        settings.newton.max_iter,
+        settings.samples_per_period,
+    )
 
 
 def solve_orbit(
@@ -120,14 +128,14 @@ def solve_orbit(
 
     A budget exhausted (``SolverOptions.max_steps``, ``max_wall_time``, :func:`hybrid.time_limit`),
     a grazing switch, a division by zero in the model's equations where only the monodromy
-    evaluates them, or IDA failing in the variational equations comes back as ``converged=False``
-    with the reason.
+    evaluates them, or IDA failing in the variational equations comes back as a failed orbit with
+    its ``reason`` (``"budget"``, ``"grazing"``, ``"evaluation-failed"``, ``"monodromy-failed"``).
     """
     at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
     try:
         return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
     except BudgetExceeded as exc:
-        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc))
+        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, str(exc), "budget")
     except GrazingSwitchError as exc:  # no saltation matrix, no monodromy
         return failed_orbit(
             shooter,
@@ -138,12 +146,15 @@ def solve_orbit(
             math.inf,
             f"{exc}; write the guard to cross zero at a nonzero rate "
             "(e.g. `v` rather than `sign(v)`), or, at a true grazing, try a nearby parameter value",
+            "grazing",
         )
     except ZeroDivisionError as exc:  # the model's equations (e.g. a reset's derivative): not a grazing
         why = f"evaluating the model's equations failed: ZeroDivisionError: {exc}"
-        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, why)
+        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, why, "evaluation-failed")
     except RuntimeError as exc:  # IDA failed in the variational equations (IntegratorError)
-        return failed_orbit(shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}")
+        return failed_orbit(
+            shooter, at[0], at[1], at[2], at[3], math.inf, f"monodromy failed: {exc}", "monodromy-failed"
+        )
 
 
 def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
@@ -161,7 +172,7 @@ def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, s
             True,
         )
         shooter.nfev += tr.nfev
-        if tr.status == Status.STEP_LIMIT and "at its rate" in tr.message:
+        if tr.status == Status.STEP_LIMIT and tr.reason == "projected":
             return failed_orbit(
                 shooter,
                 y,
@@ -171,9 +182,12 @@ def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, s
                 math.inf,
                 f"transient failed: {tr.message}; fewer transient periods (transient_periods; CLI --transient) "
                 "or a better guess (--x0) cost less",
+                "transient-failed",
             )
         if not tr.success:
-            return failed_orbit(shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}")
+            return failed_orbit(
+                shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}", "transient-failed"
+            )
         t_sec, y, mode = _choose_section(tr, T)
     t_sec = t_sec - math.floor(t_sec / T) * T
     at[:] = [y, mode, t_sec, 0]

@@ -40,7 +40,8 @@ def chart_rows(res: SweepResult) -> list[dict]:
 
     Keys: the axes' parameters, ``status`` (``"missing"`` for a point without a file),
     ``peak`` [the coordinate's unit] (empty unless the curve has orbits), ``peak_at`` [rad/s],
-    ``peak_stability``, ``optimum`` (1 at the lowest bounded peak), ``seconds`` and ``reason``.
+    ``peak_stability``, ``optimum`` (1 at the lowest bounded peak), ``seconds``, ``reason`` (a
+    code, :data:`hybrid.core.status.POINT_REASONS`) and ``message`` (the same in words).
     """
     axes = res.axes
     best = optimum(res)
@@ -59,6 +60,7 @@ def chart_rows(res: SweepResult) -> list[dict]:
                 optimum=int(r is best),
                 seconds=r.get("seconds"),
                 reason=r.get("reason", ""),
+                message=r.get("message", ""),
             )
         rows.append(row)
     return rows

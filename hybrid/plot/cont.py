@@ -38,26 +38,27 @@ def cont_figure(system, parameter: str, coord: str, eq_branches, orbit_branches)
         st = [e.stability for e in keep]
         for sl, s in _runs(p, st):
             ax_a.plot(p[sl], np.zeros(p[sl].size), _STYLE.get(s, "-"), color="k", lw=1.5)
-        for c in eb.changes:
-            ax_a.plot([c["value"]], [0.0], "o", color="C3", ms=8, zorder=5)
+        for sp in eb.special:
+            ax_a.plot([sp.parameter], [0.0], "o", color="C3", ms=8, zorder=5)
             ax_a.annotate(
-                f"{c['kind']} {parameter} = {c['value']:.6g}",
-                (c["value"], 0.0),
+                f"{sp.kind} {parameter} = {sp.parameter:.6g}",
+                (sp.parameter, 0.0),
                 textcoords="offset points",
                 xytext=(6, 8),
                 color="C3",
                 fontsize=8,
             )
-            if c["frequency"] > 0:
-                ax_t.plot([c["value"]], [2 * np.pi / c["frequency"]], "o", color="C3", ms=8, zorder=5)
+            frequency = abs(float(eb.points[sp.index].eigenvalues[0].imag))
+            if sp.kind == "hopf" and frequency > 0:
+                ax_t.plot([sp.parameter], [2 * np.pi / frequency], "o", color="C3", ms=8, zorder=5)
     for kind, br in orbit_branches:
-        if not br.orbits:
+        if not br.points:
             continue
         color = "C0" if kind == "hopf" else "C1"
         p = br.values
-        amp = np.array([o.half_peak_to_peak[coord] for o in br.orbits])
-        T = np.array([o.period for o in br.orbits])
-        st = [o.stability for o in br.orbits]
+        amp = br.half_peak_to_peak(coord)
+        T = np.array([o.period for o in br.points])
+        st = br.stability
         order = np.arange(p.size)
         for sl, s in _runs(p, st):
             ax_a.plot(p[order[sl]], amp[sl], _STYLE.get(s, "-"), color=color, lw=1.8)

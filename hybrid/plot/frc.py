@@ -118,7 +118,7 @@ def _draw_branches(ax, fr: FrequencyResponse, name: str, window=None) -> list[fl
         for b in pc.branches:
             if not b.points:
                 continue
-            p, amp = b.p, b.amplitude(name)
+            p, amp = b.values, b.amplitude(name)
             amp = np.where((p >= a) & (p <= b_), amp, np.nan)
             unknown = _unknown_segments(b)
             for i, j, s in _runs(b.stability, unknown):

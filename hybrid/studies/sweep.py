@@ -31,7 +31,7 @@ import socket
 import time
 import traceback
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field, fields, is_dataclass
 from itertools import product
@@ -42,8 +42,10 @@ import numpy as np
 from ..continuation.branch import forcing_parameter
 from ..continuation.frc import default_range, frequency_response
 from ..core.budget import time_limit
+from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.options import ContinuationOptions, SolverOptions
+from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
 from ..engine.io import to_json
 from ..model.elements import Mode, Parameter, Transition, Variable
@@ -60,18 +62,26 @@ __all__ = [
     "model_hash",
     "MANIFEST",
     "STATUSES",
+    "PointStatus",
 ]
 
 #: Name of the manifest in a sweep's folder.
 MANIFEST = "manifest.json"
-#: Version of the folder's layout (manifest and point files).
-LAYOUT = 1
+#: Version of the folder's layout (manifest and point files). 2: a point's ``reason`` is a code and
+#: its ``message`` the text; the settings' Newton options nested (``settings.newton``). A folder
+#: of layout 1 is still read (:func:`load_sweep`), not resumed.
+LAYOUT = 2
+#: Layouts :func:`load_sweep` reads.
+READABLE_LAYOUTS = (1, 2)
 #: Most points of one grid.
 MAX_POINTS = 100_000
-#: A point's status: its curve covers the range (``bounded``), a branch grew without bound
-#: (``unbounded``), parts of the range were not computed (``incomplete``: the peak is a lower
-#: bound), the computation raised (``failed``) or ran out of the per-point limit (``time limit``).
-STATUSES = ("bounded", "unbounded", "incomplete", "failed", "time limit")
+#: A point's status (:class:`PointStatus`): its curve covers the range (``bounded``), a branch grew
+#: without bound (``unbounded``), parts of the range were not computed (``incomplete``: the peak
+#: is a lower bound), the computation raised (``failed``) or ran out of the per-point limit
+#: (``time limit``).
+STATUSES = tuple(s.value for s in PointStatus)
+#: The statuses of a point that did not finish its curve.
+FAILED = (PointStatus.FAILED, PointStatus.TIME_LIMIT)
 #: Continuation settings of a sweep by default: special points bracketed, not located (only the
 #: peak and the stability along the curve are kept).
 SWEEP_CONTINUATION = ContinuationOptions(locate=False)
@@ -282,22 +292,25 @@ def _curve_summary(fr, coordinate: str) -> dict:
             branch.append(k)
     unbounded = [list(sp.interval) for b in fr.branches for sp in b.special if sp.kind == "unbounded"]
     ends = [
-        (float(np.min(b.p)), float(np.max(b.p))) for b in fr.branches if b.points and b.reason == "unbounded"
+        (float(np.min(b.values)), float(np.max(b.values)))
+        for b in fr.branches
+        if b.points and b.reason == "unbounded"
     ]
     for lo, hi in fr.gaps:  # a gap bordered by a branch that grew without bound
         if any(math.isclose(e, lo, abs_tol=1e-12) or math.isclose(s, hi, abs_tol=1e-12) for s, e in ends):
             unbounded.append([float(lo), float(hi)])
-    if fr.timed_out:
-        status = "time limit"
+    if fr.reason == "time-limit":
+        status, reason = PointStatus.TIME_LIMIT, "time-limit"
     elif any(b.reason == "unbounded" for b in fr.branches):
-        status = "unbounded"
-    elif fr.complete:
-        status = "bounded"
+        status, reason = PointStatus.UNBOUNDED, "unbounded"
+    elif fr.status == ResponseStatus.COMPLETE:
+        status, reason = PointStatus.BOUNDED, ""
     else:
-        status = "incomplete"
+        status, reason = PointStatus.INCOMPLETE, fr.reason
     out = {
         "status": status,
-        "reason": "; ".join(fr.messages()),
+        "reason": reason,
+        "message": "; ".join(fr.messages()),
         "peak": None,
         "peak_at": None,
         "peak_stability": None,
@@ -328,7 +341,7 @@ def run_point(
     """One point of a sweep: the frequency response at ``params`` and its figure of merit.
 
     Runs in a worker; never raises for a failure of the computation (it is the result's
-    ``status`` ``"failed"`` with the exception as ``reason``).
+    ``status`` ``"failed"``, ``reason`` ``"exception"``, with the exception as ``message``).
 
     Parameters
     ----------
@@ -350,7 +363,9 @@ def run_point(
     Returns
     -------
     dict
-        ``status`` (one of :data:`STATUSES`), ``reason``, ``peak`` (largest half peak-to-peak
+        ``status`` (a :class:`PointStatus`), ``reason`` (a code of
+        :data:`hybrid.core.status.POINT_REASONS`), ``message`` (the same in words: what stopped
+        a branch, the gaps, the exception), ``peak`` (largest half peak-to-peak
         amplitude of ``coordinate`` [its unit], None if no orbit), ``peak_at`` (the forcing
         frequency there [rad/s]), ``peak_stability``, ``gaps`` and ``unbounded`` (intervals
         [rad/s]), ``branches``, ``curve`` (every orbit: frequency, amplitude, stability, branch),
@@ -368,7 +383,12 @@ def run_point(
         except Exception as exc:  # recorded as the point's result: the sweep goes on
             tb = traceback.extract_tb(exc.__traceback__)
             where = f" (at {tb[-1].filename}:{tb[-1].lineno})" if tb else ""
-            out = {"status": "failed", "reason": f"{type(exc).__name__}: {exc}{where}", "peak": None}
+            out = {
+                "status": PointStatus.FAILED,
+                "reason": "exception",
+                "message": f"{type(exc).__name__}: {exc}{where}",
+                "peak": None,
+            }
     out["warnings"] = sorted({str(w.message) for w in caught})
     out.update(seconds=time.perf_counter() - t0, cpu_seconds=time.process_time() - c0)
     out.update(pid=os.getpid(), host=socket.gethostname())
@@ -445,6 +465,12 @@ class SweepResult:
         out["missing"] = math.prod(self.shape) - len(self.points)
         return out
 
+    def __repr__(self) -> str:
+        m = self.manifest
+        grid = " x ".join(f"{a['name']} ({len(a['values'])})" for a in m["axes"])
+        counts = ", ".join(f"{v} {k}" for k, v in self.counts().items() if v)
+        return f"SweepResult({m['model']} over {grid} in {str(self.folder)!r}: {counts})"
+
 
 def load_sweep(folder: str | Path) -> SweepResult:
     """Read a sweep's folder (the manifest and every point file).
@@ -464,9 +490,10 @@ def load_sweep(folder: str | Path) -> SweepResult:
         manifest = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise InputError(f"{str(path)!r} cannot be read as a sweep manifest: {exc}") from None
-    if manifest.get("layout") != LAYOUT:
+    if manifest.get("layout") not in READABLE_LAYOUTS:
         raise InputError(
-            f"{str(path)!r}: sweep layout {manifest.get('layout')!r}, this version reads {LAYOUT}"
+            f"{str(path)!r}: sweep layout {manifest.get('layout')!r}, this version reads "
+            + ", ".join(str(v) for v in READABLE_LAYOUTS)
         )
     res = SweepResult(folder, manifest)
     shape = res.shape
@@ -517,7 +544,8 @@ def sweep(
     point_time_limit: float | None = None,
     executor=None,
     resume: bool = False,
-    progress: Callable[[int, int, int], None] | None = None,
+    progress: Progress | None = None,
+    on_point: OnPoint | None = None,
 ) -> SweepResult:
     """Frequency responses over a grid of parameter values, each point written as it finishes.
 
@@ -552,8 +580,11 @@ def sweep(
         Go on with the sweep in ``folder`` (its manifest must match this call): only the
         points without a file are computed. Without it, a folder holding a sweep is refused.
     progress : callable, optional
-        Called as ``progress(done, failed, total)`` after every point (``done`` counts the
-        points found finished too; ``failed`` the ``"failed"`` and ``"time limit"`` ones).
+        ``progress(fraction)``: the fraction of the grid's points done (those found finished
+        too), once before the first point is computed and after every point.
+    on_point : callable, optional
+        ``on_point(index, result)`` with every point computed here, as it is written (its grid
+        index, a tuple, and the dict of its file), before ``progress`` (:mod:`hybrid.core.callbacks`).
 
     Returns
     -------
@@ -666,20 +697,20 @@ def sweep(
     res = load_sweep(folder)
     res.reused = sorted(res.points)
     todo = [i for i in grid if i not in res.points]
-    total, failed = len(grid), sum(1 for r in res.points.values() if r["status"] in ("failed", "time limit"))
+    total = len(grid)
 
     def finish(index: tuple, result: dict) -> None:
-        nonlocal failed
         result = {"index": list(index), "values": {a.name: grid[index][a.name] for a in axes}, **result}
         _write_atomic(folder / _point_name(index), to_json(result) + "\n")
         res.points[index] = json.loads(to_json(result))
         res.computed.append(index)
-        failed += result["status"] in ("failed", "time limit")
+        if on_point is not None:
+            on_point(index, res.points[index])
         if progress is not None:
-            progress(len(res.points), failed, total)
+            progress(len(res.points) / total)
 
     if progress is not None:
-        progress(len(res.points), failed, total)
+        progress(len(res.points) / total)
     args = (data, digest)
     rest = (p_range, coordinate, options, settings, point_time_limit)
     if executor is None:

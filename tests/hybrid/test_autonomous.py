@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+import hybrid
 from hybrid import HybridSystem, Mode, ModelError, SolverOptions, periodic_orbit, system_from_dict
 from hybrid.orbits.autonomous import autonomous_orbit
 from hybrid.orbits.equilibria import equilibrium
@@ -54,7 +55,12 @@ def test_stuart_landau_period_and_multipliers(section):
     sys_ = stuart_landau(section=section)
     a, w = 1.0, 2.5
     orbit = autonomous_orbit(
-        sys_, {"a": a, "w": w}, {"x": 0.3, "y": 0.0}, period=2.0, options=TIGHT, tol=1e-11
+        sys_,
+        {"a": a, "w": w},
+        {"x": 0.3, "y": 0.0},
+        period=2.0,
+        options=TIGHT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11)),
     )
     assert orbit.converged, orbit.message
     T = 2 * math.pi / w

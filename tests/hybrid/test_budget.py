@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid.core.budget as budget_mod
 import hybrid_models
 from hybrid import (
@@ -93,6 +94,7 @@ def test_step_limit_stops_a_simulation_with_what_to_change():
     T = 2 * math.pi / p["Omega"]
     tr = simulate(system, p, (0.0, 50 * T), rest(system), options=SolverOptions(max_steps=300), throw=False)
     assert tr.status == Status.STEP_LIMIT and not tr.success
+    assert tr.reason == "steps"  # the budget used up (not projected)
     assert tr.message.startswith("step limit reached: ")
     assert "SolverOptions.max_steps = 300" in tr.message and "--max-steps" in tr.message
     assert 300 <= tr.nfev < 300 + 1000  # one call into IDA past the limit at most
@@ -130,6 +132,7 @@ def test_wall_clock_limit_of_one_run(clock):
     finally:
         budget_mod.Budget.check = orig
     assert tr.status == Status.TIME_LIMIT
+    assert tr.reason == "time"
     assert tr.message.startswith("time limit reached: ")
     assert "max_wall_time = 5 s" in tr.message and "--max-time" in tr.message
     assert len(calls) == 20
@@ -142,6 +145,7 @@ def test_command_deadline_stops_a_simulation(clock):
         clock.jump(61)
         tr = simulate(system, p, (0.0, 5 * T), rest(system), throw=False)
     assert tr.status == Status.TIME_LIMIT
+    assert tr.reason == "time"
     assert "limit of 60 s (hybrid.time_limit; CLI --max-time)" in tr.message
 
 
@@ -176,6 +180,7 @@ def test_dynamics_far_faster_than_the_forcing_are_stopped_early_with_the_reason(
         system, {"w": 1e4}, (0.0, 20 * 2 * math.pi), {"x": 1.0, "v": 0.0}, options=opts, throw=False
     )
     assert tr.status == Status.STEP_LIMIT
+    assert tr.reason == "projected"  # the code the orbit's transient reads, not the message text
     assert tr.message.startswith("step limit: at its rate so far this run needs about ")
     assert tr.nfev < 50_000  # stopped early, not at the budget
     assert "mode `m` linearised here has an eigenvalue of modulus 1e+04 1/s" in tr.message
@@ -203,8 +208,14 @@ def test_variational_run_obeys_the_step_budget():
 
 def test_periodic_orbit_reports_a_step_limit_as_not_converged():
     system, p = coulomb_forced()
-    o = periodic_orbit(system, p, transient_periods=0, options=SolverOptions(rtol=1e-10, max_steps=60))
+    o = periodic_orbit(
+        system,
+        p,
+        options=SolverOptions(rtol=1e-10, max_steps=60),
+        settings=hybrid.ShootingOptions(transient_periods=0),
+    )
     assert not o.converged and o.message.startswith("step limit reached: ")
+    assert o.status == "failed" and o.reason == "budget"
 
 
 def test_periodic_orbit_honours_the_deadline(clock):
@@ -226,8 +237,11 @@ def test_continuation_stops_at_the_deadline_with_the_points_it_has(clock):
             clock.jump(100)
 
     with time_limit(50):
-        br = continue_orbits(system, p, "Omega", (0.8, 0.9), ds=0.05, progress=progress)
+        br = continue_orbits(
+            system, p, "Omega", (0.8, 0.9), progress=progress, settings=hybrid.ContinuationOptions(ds=0.05)
+        )
     assert br.status == "stopped"
+    assert br.reason == "budget"
     assert "time limit reached" in br.message
     assert len(br.points) >= 3 and len(seen) == 2
 
@@ -243,7 +257,8 @@ def test_frequency_response_returns_what_it_has_at_the_deadline(clock):
 
     with time_limit(50):
         fr = frequency_response(system, p, (0.8, 1.5), progress=progress)
-    assert fr.timed_out and not fr.complete
+    assert fr.status == "incomplete" and fr.status is hybrid.ResponseStatus.INCOMPLETE
+    assert fr.reason == "time-limit"
     assert sum(len(b.points) for b in fr.branches) >= 2
     assert fr.gaps and fr.gaps[-1][1] == 1.5
     assert any("time limit reached" in m for m in fr.messages())
@@ -326,9 +341,11 @@ def test_periodic_orbit_refuses_too_few_samples(n):
     # before: samples_per_period=0 returned amplitude 2.218 instead of 3.3166
     system, p = coulomb_forced()
     with pytest.raises(ValueError, match=r"`samples_per_period` must be an integer >= 16"):
-        periodic_orbit(system, p, samples_per_period=n)
+        periodic_orbit(system, p, settings=hybrid.ShootingOptions(samples_per_period=n))
     with pytest.raises(ValueError, match=r"`samples_per_period` must be an integer >= 16"):
-        continue_orbits(system, p, "Omega", (0.5, 0.6), samples_per_period=n)
+        continue_orbits(
+            system, p, "Omega", (0.5, 0.6), settings=hybrid.ContinuationOptions(samples_per_period=n)
+        )
 
 
 def test_condition_of_a_fully_stuck_orbit_is_infinite_not_nan():
@@ -374,9 +391,11 @@ def test_grazing_switch_is_not_converged_with_the_reason():
     # before: ZeroDivisionError from the saltation matrix out of periodic_orbit
     o = periodic_orbit(sign_relay(), {"W": 1.3}, {"x": 0.0, "v": 0.5}, "up")
     assert not o.converged
+    assert o.reason == "grazing"
     assert o.message.startswith("grazing switch: ") and "saltation matrix is undefined" in o.message
     br = continue_orbits(sign_relay(), {"W": 1.3}, "W", (1.3, 1.4), x0={"x": 0.0, "v": 0.5}, mode0="up")
     assert br.status == "stopped" and "grazing switch" in br.message
+    assert br.reason == "no-start"  # its first orbit is that failed one
 
 
 def test_an_initial_state_out_of_range_is_refused_before_the_run():
@@ -397,15 +416,22 @@ def test_a_strong_forcing_from_rest_is_integrated_with_a_small_first_step():
     # before: F = 100 failed at t = 0 with "Error tests failed too many times" (IDA's own first
     # step far too large); now the segment is restarted once with a small first step
     system = hybrid_models.absorber()
-    o = periodic_orbit(system, system.preset("standard", F=100.0), transient_periods=2)
+    o = periodic_orbit(
+        system, system.preset("standard", F=100.0), settings=hybrid.ShootingOptions(transient_periods=2)
+    )
     assert o.converged, o.message
 
 
 def test_orbit_at_an_undamped_resonance_says_no_bounded_orbit_and_what_to_try():
     # R = 0 at the resonance of the slipping (linear, undamped) system: no bounded orbit
     system = hybrid_models.absorber()
-    o = periodic_orbit(system, system.preset("standard", R=0.0, Omega=0.8525006), max_iter=8)
+    o = periodic_orbit(
+        system,
+        system.preset("standard", R=0.0, Omega=0.8525006),
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=8)),
+    )
     assert not o.converged
+    assert o.reason == "resonance"
     assert o.message.startswith("no bounded periodic orbit near the guess: a Floquet multiplier is 1")
     assert "--transient" in o.message and "--x0" in o.message
     # the cold-start fallback tried both sides: each branch grows without bound towards Omega

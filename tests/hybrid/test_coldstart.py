@@ -53,11 +53,16 @@ def _reference(system, params, start: float):
     ``params["Omega"]``, corrected there (Newton from that point, no transient)."""
     om = params["Omega"]
     br = continue_orbits(system, params, "Omega", (start, om), settings=ContinuationOptions(locate=False))
-    ps = br.p
+    ps = br.values
     assert ps.size and (ps.min() - om) * (ps.max() - om) <= 0, br.message  # it passed through om
     o = br.points[int(np.argmin(np.abs(ps - om)))]
     ref = periodic_orbit(
-        system, params, o.x0, o.mode0, t0=o.t0 / o.period * (2 * np.pi / om), transient_periods=0
+        system,
+        params,
+        o.x0,
+        o.mode0,
+        t0=o.t0 / o.period * (2 * np.pi / om),
+        settings=hybrid.ShootingOptions(transient_periods=0),
     )
     assert ref.converged, ref.message
     return ref
@@ -74,7 +79,13 @@ def _relative_difference(orbit, ref) -> float:
 def _polished(orbit):
     """The orbit corrected at rtol 1e-12 from its own section (Newton, no transient)."""
     o = periodic_orbit(
-        orbit.system, orbit.params, orbit.x0, orbit.mode0, t0=orbit.t0, transient_periods=0, options=TIGHT
+        orbit.system,
+        orbit.params,
+        orbit.x0,
+        orbit.mode0,
+        t0=orbit.t0,
+        options=TIGHT,
+        settings=hybrid.ShootingOptions(transient_periods=0),
     )
     assert o.converged, o.message
     return o
@@ -98,17 +109,18 @@ def _check_against_independent_continuation(orbit, system, params) -> None:
 
 def _fallback(system, params):
     """The fallback's orbit itself (whatever Newton from a transient does at ``params``)."""
-    failed = periodic_orbit(system, params, transient_periods=0, max_iter=1)
+    failed = periodic_orbit(
+        system,
+        params,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
+    )
     assert not failed.converged and failed.route == "none"
     o = find_by_continuation(
         system,
         params,
         failed,
         options=hybrid.ORBIT_OPTIONS,
-        tol=1e-9,
-        max_iter=30,
-        transient_periods=10,
-        samples_per_period=512,
+        settings=hybrid.ShootingOptions(samples_per_period=512),
     )
     assert o.converged, o.message
     assert "found by continuation in Omega from" in o.message
@@ -146,7 +158,11 @@ def test_absorber_cold_start_at_the_stuck_resonance_finds_the_stable_orbit():
 def test_no_fallback_without_a_transient():
     # with transient_periods=0 the guess is the caller's section: Newton's result as it is
     system = resolve_model("absorber")
-    o = periodic_orbit(system, system.preset("standard"), transient_periods=0, max_iter=1)
+    o = periodic_orbit(
+        system,
+        system.preset("standard"),
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
+    )
     assert not o.converged and o.route == "none" and "fallback" not in o.message
 
 
@@ -164,16 +180,17 @@ def test_a_failed_fallback_says_what_it_tried(monkeypatch):
     system = resolve_model("absorber")
     base = system.preset("standard")
     params = {**base, "Omega": float(natural_frequencies(system, base)[0])}
-    failed = periodic_orbit(system, params, transient_periods=0, max_iter=1)
+    failed = periodic_orbit(
+        system,
+        params,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
+    )
     o = cs.find_by_continuation(
         system,
         params,
         failed,
         options=hybrid.ORBIT_OPTIONS,
-        tol=1e-9,
-        max_iter=30,
-        transient_periods=10,
-        samples_per_period=64,
+        settings=hybrid.ShootingOptions(samples_per_period=64),
     )
     assert not o.converged and o.route == "none"
     assert o.message.startswith(failed.message)

@@ -49,13 +49,19 @@ def test_duffing_folds_located_to_1e8():
         assert br.points[s.index].params["Omega"] == s.parameter
     # No orbit twice.
     assert len({id(o) for o in br.points}) == len(br.points)
-    assert len(set(br.p)) == len(br.p)
+    assert len(set(br.values)) == len(br.values)
 
 
 def test_friction_loss_of_stick_located_to_1e8():
     system, params, _ = op.friction_oscillator()
     boundary = op.friction_stick_boundary(params)
-    br = continue_orbits(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
+    br = continue_orbits(
+        system,
+        params,
+        "Omega",
+        (0.56, 0.62),
+        settings=hybrid.ContinuationOptions(ds=0.02, ds_max=0.05, samples_per_period=64),
+    )
     assert br.status == "completed", br.message
     (lost,) = [s for s in br.special if s.kind == "mode-lost"]
     assert lost.status == "located"
@@ -117,7 +123,7 @@ def test_unbounded_branch_stops_with_its_label(coulomb):
     amp = br.amplitude("x")
     size0 = max(br.points[0].amplitude["x"], br.points[0].amplitude["v"])
     assert np.all(np.isfinite(amp)) and amp.max() <= 1e6 * size0
-    assert 1.0 < br.p[-1] < 1.001
+    assert 1.0 < br.values[-1] < 1.001
     # Every orbit of the branch up to the resonance is Den Hartog's non-stop motion (amplitudes from
     # 0.7 to 4e5 m).
     m, k, R, F = (params[n] for n in ("m", "k", "R", "F"))
@@ -164,7 +170,7 @@ def test_frequency_response_matches_den_hartog_below_resonance(coulomb):
         assert k * X * (W / math.sqrt(k / m)) ** 2 > R
         assert o.mode_fractions.get("stick", 0.0) == 0.0
         assert abs(o.amplitude["x"] - X) <= den_hartog_tolerance(m, k, W) * X, W
-    assert br.p[0] == 0.6 and br.p[-1] >= 0.98 and len(br.points) >= 10
+    assert br.values[0] == 0.6 and br.values[-1] >= 0.98 and len(br.points) >= 10
 
 
 # ----------------------------------------------------------------------------
@@ -233,7 +239,7 @@ def test_frc_cli_writes_every_row_once(tmp_path, capsys):
     ("kwargs", "match"),
     [
         ({"ds": 0.0}, "ds"),
-        ({"tol": math.nan}, "tol"),
+        ({"max_failures": 0}, "max_failures"),
         ({"ds_min": 1.0}, "ds_min <= ds"),
         ({"max_points": 0}, "max_points"),
         ({"locate_tol": -1.0}, "locate_tol"),
@@ -250,7 +256,7 @@ def test_public_names_and_empty_branch():
     assert hybrid.frequency_response is frequency_response
     system = resolve_model("coulomb")
     assert hybrid.forcing_parameter(system) == "Omega"
-    br = hybrid.Branch(system, {}, "Omega")
+    br = hybrid.Branch("forced-orbits", system, {}, "Omega")
     assert "no point" in repr(br)
     with pytest.raises(TypeError, match="unexpected"):
         continue_orbits(system, dict(system.presets["forced"]), "Omega", (1.1, 1.2), step=0.1)
@@ -265,11 +271,12 @@ def test_a_start_that_fails_at_the_range_end_is_retried_inside_it(coulomb):
     first, *rest = fr.branches
     assert first.reason == "no-start" and not first.points
     assert rest and all(b.points for b in rest), [b.message for b in rest]
-    assert rest[0].p[0] == 0.5 + 1e-3 * 0.06  # the first retry, inside the range
-    # What no branch covers is reported; here the downward run from 0.56 passes 0.5.
-    for a, b in fr.gaps:
-        assert 0.5 <= a < b <= 0.5 + 2e-2 * 0.06
-    covered = sorted((float(b.p.min()), float(b.p.max())) for b in rest)
+    assert rest[0].values[0] == 0.5 + 1e-3 * 0.06  # the first retry, inside the range
+    # What no branch covers is reported; here the downward run from 0.56 passes 0.5 (no gap), and
+    # the branch without a point makes the curve incomplete, with that reason.
+    assert not fr.gaps
+    assert fr.status == "incomplete" and fr.reason == "empty-branch"
+    covered = sorted((float(b.values.min()), float(b.values.max())) for b in rest)
     assert covered[0][0] <= 0.5 + 2e-2 * 0.06 and max(hi for _, hi in covered) >= 0.56
     assert all(o.converged for b in rest for o in b.points)
 

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid_models
 from hybrid import HybridSystem, Mode, NotAffineError, SolverOptions, Transition, simulate
 from hybrid.integrators.affine import affine_mode, affine_system
@@ -208,14 +209,31 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     for om in omegas:
         p = system.preset(preset, Omega=om)
         if prev is None:
-            ex = periodic_orbit(system, p, options=exact, tol=1e-12)
+            ex = periodic_orbit(
+                system,
+                p,
+                options=exact,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+            )
         else:
             t0 = prev.t0 * prev.params["Omega"] / om  # same forcing phase
             ex = periodic_orbit(
-                system, p, prev.x0, prev.mode0, t0=t0, transient_periods=0, options=exact, tol=1e-12
+                system,
+                p,
+                prev.x0,
+                prev.mode0,
+                t0=t0,
+                options=exact,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0),
             )
         ref = periodic_orbit(
-            system, p, ex.x0, ex.mode0, t0=ex.t0, transient_periods=0, options=tight, tol=1e-11
+            system,
+            p,
+            ex.x0,
+            ex.mode0,
+            t0=ex.t0,
+            options=tight,
+            settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11), transient_periods=0),
         )
         assert ref.converged and ex.converged, (om, ref.message, ex.message)
         assert ex.residual <= 1e-12  # the exact map: Newton converges to rounding (IDA's to its tolerance)
@@ -366,7 +384,13 @@ def test_a_whole_exact_band_agrees_with_ida(name):
         for rtol in (1e-12, 5e-13):
             tight = SolverOptions(rtol=rtol, atol=rtol * 1e-2)
             q = periodic_orbit(
-                system, o.params, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=tight, tol=1e-11
+                system,
+                o.params,
+                o.x0,
+                o.mode0,
+                t0=o.t0,
+                options=tight,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11), transient_periods=0),
             )
             if q.converged:
                 break
@@ -415,7 +439,9 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.8545)
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
-    o = periodic_orbit(system, p, options=tight, tol=1e-11)
+    o = periodic_orbit(
+        system, p, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
+    )
     assert o.converged and o.transitions_per_period == 4, o.message
     cols = []
     for opts in (SolverOptions(integrator="exact"), tight):

@@ -44,7 +44,7 @@ def test_two_workers_give_the_same_curve_and_the_same_orbits_in_the_same_order()
     assert [k for k, _, _ in seen2] == sorted(k for k, _, _ in seen2)
     assert len(fr1.branches) == len(fr2.branches)
     for b1, b2 in zip(fr1.branches, fr2.branches, strict=True):
-        np.testing.assert_array_equal(b1.p, b2.p)
+        np.testing.assert_array_equal(b1.values, b2.values)
         assert [o.amplitude for o in b1.points] == [o.amplitude for o in b2.points]
         assert [(s.kind, s.parameter, s.interval) for s in b1.special] == [
             (s.kind, s.parameter, s.interval) for s in b2.special

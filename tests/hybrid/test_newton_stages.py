@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from problems import nonlinear_dae, riccati
 
+import hybrid
 import hybrid.orbits.newton as newton
 import hybrid.orbits.shooter as shooting
 import hybrid_models
@@ -59,10 +60,10 @@ def _neighbour(system, start, p, options, tol=1e-9):
         start.x0,
         start.mode0,
         t0=start.t0 * start.params["Omega"] / p["Omega"],  # the same forcing phase
-        transient_periods=0,
         options=options,
-        samples_per_period=16,
-        tol=tol,
+        settings=hybrid.ShootingOptions(
+            newton=hybrid.NewtonOptions(tol=tol), transient_periods=0, samples_per_period=16
+        ),
     )
 
 
@@ -76,7 +77,9 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
     # the first iterations ran at the coarse tolerance, the result at the requested one
     assert count.get(("run", newton.COARSE_RTOL), 0) >= 2
     assert count[("monodromy", IDA.rtol)] == 1  # the result's, at its section state
-    ref = periodic_orbit(system, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT)
+    ref = periodic_orbit(
+        system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert ref.converged and ref.t0 == o.t0
     x, xr = o.x0[:5], ref.x0[:5]
     # accurate to cond(I - M) x rtol (the orbit's documented accuracy), here about 1e-7
@@ -107,7 +110,9 @@ def test_a_failing_coarse_stage_falls_back_on_the_requested_tolerances(absorber_
     monkeypatch.setattr(shooting.Shooter, "monodromy", fails_when_coarse)
     o = _neighbour(system, start, p, IDA)
     assert o.converged, o.message
-    ref = periodic_orbit(system, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT)
+    ref = periodic_orbit(
+        system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert np.max(np.abs(o.x0[:5] - ref.x0[:5])) / np.max(np.abs(ref.x0[:5])) <= 10 * o.condition * 1e-10
 
 

@@ -130,11 +130,8 @@ def duffing_branch(duffing):
         params,
         "Omega",
         (1.0, 1.4),
-        ds=0.1,
-        ds_max=0.5,
-        samples_per_period=32,
-        transient_periods=5,
         options=SolverOptions(rtol=1e-9, atol=1e-11),
+        settings=hybrid.ContinuationOptions(ds=0.1, ds_max=0.5, samples_per_period=32, transient_periods=5),
     )
 
 
@@ -145,7 +142,9 @@ def duffing_branch(duffing):
 def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
     system, params, ref = problem()
     # From rest at the reference's section (t0 = 0): one Newton step on a linear map.
-    orbit = periodic_orbit(system, params, None, ref.mode0, t0=0.0, transient_periods=0)
+    orbit = periodic_orbit(
+        system, params, None, ref.mode0, t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert orbit.converged and orbit.t0 == 0.0 and orbit.mode0 == ref.mode0
     assert orbit.iterations >= 1
     assert rel(orbit.x0, ref.x0) <= 1e-8
@@ -214,7 +213,9 @@ def test_friction_orbit_at_the_reference_section(friction):
     system, params, ref = friction
     # Section t0 = 0 in mid-slip, from a perturbed guess, no transient.
     guess = ref.x0 + np.array([2e-3, -1e-3, 0.0, 0.0, 0.0])
-    orbit = periodic_orbit(system, params, guess, ref.mode0, t0=0.0, transient_periods=0)
+    orbit = periodic_orbit(
+        system, params, guess, ref.mode0, t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert orbit.converged and orbit.t0 == 0.0 and orbit.iterations >= 1
     assert np.max(np.abs(orbit.x0[:2] - ref.x0[:2])) <= 1e-8
     assert np.max(np.abs(orbit.monodromy - ref.monodromy)) <= 1e-7
@@ -226,7 +227,9 @@ def test_friction_orbit_at_the_reference_section(friction):
 def test_impact_orbit_at_the_reference_section(impact):
     system, params, ref = impact
     guess = ref.x0 + np.array([1e-3, 1e-3, 0.0, 0.0])
-    orbit = periodic_orbit(system, params, guess, ref.mode0, t0=0.0, transient_periods=0)
+    orbit = periodic_orbit(
+        system, params, guess, ref.mode0, t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert orbit.converged and orbit.iterations >= 1
     assert np.max(np.abs(orbit.x0[:2] - ref.x0[:2])) <= 1e-8
     assert np.max(np.abs(orbit.monodromy - ref.monodromy)) <= 1e-7
@@ -254,7 +257,7 @@ def test_duffing_continuation_locates_both_folds(duffing, duffing_branch):
     _, _, ref = duffing
     br = duffing_branch
     assert br.status == "completed", br.message
-    assert br.p[0] == 1.0 and br.p[-1] >= 1.4
+    assert br.values[0] == 1.0 and br.values[-1] >= 1.4
     folds = [s for s in br.special if s.kind == "fold"]
     assert len(folds) == 2
     # Upper fold first (the resonant branch turns back), then the lower one.
@@ -304,7 +307,12 @@ def test_duffing_branch_stability_agrees_with_the_reference(duffing, duffing_bra
         k = min(part, key=lambda i: abs(br.points[i].params["Omega"] - W))
         start = br.points[k]
         o = periodic_orbit(
-            system, {**params, "Omega": W}, start.x0, start.mode0, t0=start.t0, transient_periods=0
+            system,
+            {**params, "Omega": W},
+            start.x0,
+            start.mode0,
+            t0=start.t0,
+            settings=hybrid.ShootingOptions(transient_periods=0),
         )
         assert o.converged and o.stability == expected
         found.append(o)
@@ -319,7 +327,13 @@ def test_friction_continuation_finds_the_stick_boundary(friction):
     system, params, _ = friction
     boundary = op.friction_stick_boundary(params)
     assert abs(boundary - 0.58970847211665) <= 1e-10
-    br = continue_orbits(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
+    br = continue_orbits(
+        system,
+        params,
+        "Omega",
+        (0.56, 0.62),
+        settings=hybrid.ContinuationOptions(ds=0.02, ds_max=0.05, samples_per_period=64),
+    )
     assert br.status == "completed", br.message
     lost = [s for s in br.special if s.kind == "mode-lost"]
     assert len(lost) == 1, f"special points: {br.special}"
@@ -362,9 +376,15 @@ def test_periodic_orbit_needs_a_period(no_integration):
 def test_tolerance_must_be_positive(duffing, no_integration, tol):
     system, params, _ = duffing
     with pytest.raises(ValueError, match="tol"):
-        periodic_orbit(system, params, tol=tol)
+        periodic_orbit(system, params, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)))
     with pytest.raises(ValueError, match="tol"):
-        continue_orbits(system, params, "Omega", (1.0, 1.1), tol=tol)
+        continue_orbits(
+            system,
+            params,
+            "Omega",
+            (1.0, 1.1),
+            settings=hybrid.ContinuationOptions(newton=hybrid.NewtonOptions(tol=tol, max_iter=8)),
+        )
 
 
 @pytest.mark.parametrize(

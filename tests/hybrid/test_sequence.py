@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid.orbits.newton as newton
 import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit
@@ -26,7 +27,12 @@ EXACT = SolverOptions(integrator="exact")
 
 def _neighbour_guess(system, preset, om1, om2):
     """The orbit at ``om1`` and the run of one period from it at ``om2`` (the section's phase kept)."""
-    o1 = periodic_orbit(system, system.preset(preset, Omega=om1), options=EXACT, tol=1e-12)
+    o1 = periodic_orbit(
+        system,
+        system.preset(preset, Omega=om1),
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
     assert o1.converged, o1.message
     sh = Shooter(system, system.preset(preset, Omega=om2), EXACT)
     t0 = o1.t0 * om1 / om2
@@ -77,8 +83,7 @@ def test_coulomb_non_stop_orbit_equals_den_hartog():
     m0 = sh.cs.mode_id(o1.mode0)
     yd = solve_sequence(exact_flows(sh.cs), m0, t0, sh.period, o1.x0, events)
     assert yd is not None
-    o2 = periodic_orbit(co, co.preset("forced", Omega=0.83), o1.x0, o1.mode0, t0=t0, transient_periods=0,
-                        options=EXACT, tol=1e-12)  # fmt: skip
+    o2 = periodic_orbit(co, co.preset("forced", Omega=0.83), o1.x0, o1.mode0, t0=t0, options=EXACT, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0))  # fmt: skip
     assert o2.converged
     np.testing.assert_allclose(yd, o2.x0[exact_flows(sh.cs)[m0].d], rtol=0, atol=1e-12)
     p = co.preset("forced")
@@ -88,7 +93,12 @@ def test_coulomb_non_stop_orbit_equals_den_hartog():
 def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
     ab = hybrid_models.absorber()
     base = ab.preset("standard")
-    start = periodic_orbit(ab, {**base, "Omega": 0.8542}, options=EXACT, tol=1e-12)
+    start = periodic_orbit(
+        ab,
+        {**base, "Omega": 0.8542},
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
     assert start.converged
     runs = {"n": 0}
     real_run = Shooter._run
@@ -103,8 +113,7 @@ def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
         out, counts, prev, om_prev = [], [], start, 0.8542
         for om in (0.8544, 0.8546, 0.8548, 0.855):
             runs["n"] = 0
-            o = periodic_orbit(ab, {**base, "Omega": om}, prev.x0, prev.mode0, t0=prev.t0 * om_prev / om,
-                               transient_periods=0, options=EXACT, tol=1e-10)  # fmt: skip
+            o = periodic_orbit(ab, {**base, "Omega": om}, prev.x0, prev.mode0, t0=prev.t0 * om_prev / om, options=EXACT, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-10), transient_periods=0))  # fmt: skip
             assert o.converged, o.message
             out.append(o)
             counts.append(runs["n"])
@@ -181,13 +190,17 @@ def test_a_guess_outside_newtons_contraction_keeps_the_branch(tmp_path, monkeypa
     the period map reaches the stable one; the switch-time iteration, whose updates there do not
     contract, is given up instead of being followed to the unstable one."""
     s = _impact(tmp_path)
-    p = periodic_orbit(s, s.preset("standard"), options=EXACT, tol=1e-12)
+    p = periodic_orbit(
+        s,
+        s.preset("standard"),
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
     assert p.converged and p.stable
     q = s.preset("standard", Omega=1.6923)
 
     def solve():
-        o = periodic_orbit(s, q, p.x0, p.mode0, t0=p.t0 * 1.4256 / 1.6923, transient_periods=0,
-                           options=EXACT, tol=1e-12)  # fmt: skip
+        o = periodic_orbit(s, q, p.x0, p.mode0, t0=p.t0 * 1.4256 / 1.6923, options=EXACT, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0))  # fmt: skip
         assert o.converged, o.message
         return o
 
@@ -200,7 +213,12 @@ def test_a_guess_outside_newtons_contraction_keeps_the_branch(tmp_path, monkeypa
 
 def test_a_reset_that_is_not_affine_is_not_linearised(tmp_path):
     s = _impact(tmp_path, reset="-e*v - 0.01*v*v")
-    p = periodic_orbit(s, s.preset("standard"), options=EXACT, tol=1e-12)
+    p = periodic_orbit(
+        s,
+        s.preset("standard"),
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
     assert p.converged and len(p.switch_times) == 1
     sh = Shooter(s, s.preset("standard"), EXACT)
     tr = sh.run(p.x0, p.mode0, p.t0)

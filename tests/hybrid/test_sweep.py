@@ -135,7 +135,7 @@ def test_points_against_closed_form(serial, oscillator):
     for (i, j), r in res.points.items():
         p = {**params, "c": axes[0].values[i], "k": axes[1].values[j]}
         assert r["values"] == {"c": p["c"], "k": p["k"]}
-        assert r["status"] == "bounded", r["reason"]
+        assert r["status"] == "bounded", r["message"]
         om, amp = np.asarray(r["curve"]["Omega"]), np.asarray(r["curve"]["amplitude"])
         assert (
             om.min() == pytest.approx(P_RANGE[0], abs=1e-12) and om.max() >= P_RANGE[1]
@@ -163,6 +163,7 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
         options=EXACT,
     )
     assert res.points[(0,)]["status"] == "unbounded" and res.points[(1,)]["status"] == "bounded"
+    assert res.points[(0,)]["reason"] == "unbounded" and res.points[(1,)]["reason"] == ""
     assert any(lo < 1.0 < hi + 1e-6 for lo, hi in res.points[(0,)]["unbounded"])
     # m = 0: the equations divide by zero; the point is recorded with the exception, the next one runs
     res = hybrid.sweep(
@@ -174,7 +175,8 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
         options=EXACT,
     )
     assert res.points[(0,)]["status"] == "failed" and res.points[(0,)]["peak"] is None
-    assert "ZeroDivisionError" in res.points[(0,)]["reason"]
+    assert res.points[(0,)]["reason"] == "exception"
+    assert "ZeroDivisionError" in res.points[(0,)]["message"]
     assert res.points[(1,)]["status"] == "bounded"
     res = hybrid.sweep(
         system,
@@ -185,7 +187,8 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
         options=EXACT,
         point_time_limit=1e-6,
     )
-    assert res.points[(0,)]["status"] == "time limit" and "time limit" in res.points[(0,)]["reason"]
+    assert res.points[(0,)]["status"] == "time limit" and res.points[(0,)]["reason"] == "time-limit"
+    assert "time limit" in res.points[(0,)]["message"]
 
 
 def test_process_pool_equals_serial(serial, oscillator, tmp_path):
@@ -442,13 +445,21 @@ def test_progress_bar_shows_done_failed_and_time_left():
 
     from hybrid.cli.sweep import _SweepBar
 
-    bar = _SweepBar("sweep", True)
+    bar = _SweepBar("sweep", True, 10)
     bar.bar.stream = io.StringIO()
-    bar(2, 0, 10)  # two points found finished: the rate comes from the points computed now
+    bar(0.2)  # two points found finished: the rate comes from the points computed now
     assert "2/10 done, 0 failed, time left: after the first point" in bar.bar.stream.getvalue()
     bar.t0 -= 60.0  # one point computed in 60 s: 7 left take 7 min
-    bar(3, 1, 10)
+    bar.point((2,), {"status": "failed"})  # (on_point comes before progress)
+    bar(0.3)
     assert "3/10 done, 1 failed, 7.0 min left" in bar.bar.stream.getvalue()
+    bar.point((3,), {"status": "bounded"})
+    bar(0.4)
+    assert "4/10 done, 1 failed" in bar.bar.stream.getvalue()
+    resumed = _SweepBar("sweep", True, 10, failed=2)  # two failed points found in the folder
+    resumed.bar.stream = io.StringIO()
+    resumed(0.5)
+    assert "5/10 done, 2 failed" in resumed.bar.stream.getvalue()
 
 
 def test_chart_of_a_plane_with_unbounded_points(oscillator, tmp_path):

@@ -18,6 +18,7 @@ import math
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid_models
 from hybrid import SolverOptions, continue_orbits, periodic_orbit
 from hybrid.integrators.affine import exact_flows
@@ -59,8 +60,18 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     back on the Pade path and a continuation over the band stalled."""
     ab = hybrid_models.absorber()
     opts, tol = (EXACT, 1e-12) if integrator == "exact" else (None, 1e-9)
-    ref = periodic_orbit(ab, _scaled(1.0, 0.85306), options=opts, tol=tol)
-    o = periodic_orbit(ab, _scaled(c, 0.85306), options=opts, tol=tol)
+    ref = periodic_orbit(
+        ab,
+        _scaled(1.0, 0.85306),
+        options=opts,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)),
+    )
+    o = periodic_orbit(
+        ab,
+        _scaled(c, 0.85306),
+        options=opts,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)),
+    )
     assert ref.converged and o.converged, o.message
     assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
     if integrator == "exact":

@@ -34,6 +34,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+import hybrid
 import hybrid_models
 from hybrid import periodic_orbit
 from hybrid_models.karnopp import KarnoppOrbit, shoot_karnopp, simulate_karnopp
@@ -126,7 +127,9 @@ def absorber_exact():
     system = hybrid_models.absorber()
     p = system.preset("standard")
     guess = dict(zip(NAMES, [-2.5716904, -1.789023, -9.5428116, -6.7533509, -9.5232955], strict=True))
-    orbit = periodic_orbit(system, p, guess, "slip-", t0=0.0, transient_periods=0)
+    orbit = periodic_orbit(
+        system, p, guess, "slip-", t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert orbit.converged and orbit.mode0 == "slip-", orbit.message
     return orbit
 
@@ -182,7 +185,14 @@ def test_absorber_stick_slip_section_in_stick(absorber_exact):
     i = int(np.argmin(np.abs(tr.t - t0)))
     t0 = float(tr.t[i])
     guess = {n: float(tr[n][i]) for n in NAMES}
-    exact = periodic_orbit(hybrid_models.absorber(), p, guess, "stick", t0=t0, transient_periods=0)
+    exact = periodic_orbit(
+        hybrid_models.absorber(),
+        p,
+        guess,
+        "stick",
+        t0=t0,
+        settings=hybrid.ShootingOptions(transient_periods=0),
+    )
     assert exact.converged and exact.mode0 == "stick", exact.message
     orbit = shoot_karnopp("absorber", p, 0.9 * np.asarray(exact.x0[:5]), t0=t0)
     assert orbit.t0 == t0
@@ -222,7 +232,9 @@ def test_isolator_stick_slip():
     i0 = (shift + (starts[k] + ends[k]) // 2) % (len(t) - 1)
     t0 = float(t[i0])
     guess = dict(zip(NAMES, run.y[i0, :5], strict=True))
-    exact = periodic_orbit(system, p, guess, "stick", t0=t0, transient_periods=0)
+    exact = periodic_orbit(
+        system, p, guess, "stick", t0=t0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert exact.converged and exact.mode0 == "stick", exact.message
     assert exact.t0 == t0
     x_exact = np.asarray(exact.x0[:5])

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+import hybrid
 import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit, simulate
 
@@ -114,7 +115,14 @@ def test_network_periodic_orbit_equals_the_hand_written_one(hand_name, net_name,
         opts, tol, bound = SolverOptions(integrator="exact"), 1e-12, 1e-9
     else:
         opts, tol, bound = SolverOptions(rtol=1e-12, atol=1e-14), 1e-11, 1e-8
-    a, b = periodic_orbit(hand, p, options=opts, tol=tol), periodic_orbit(net, p, options=opts, tol=tol)
+    a, b = (
+        periodic_orbit(
+            hand, p, options=opts, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol))
+        ),
+        periodic_orbit(
+            net, p, options=opts, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol))
+        ),
+    )
     assert a.converged and b.converged
     assert a.mode_sequence == b.mode_sequence and len(a.switch_times) >= 2
     dt = np.max(np.abs(a.switch_times - b.switch_times))

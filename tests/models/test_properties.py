@@ -126,7 +126,9 @@ def test_short_simulation_never_crashes_and_balances_energy(model, data):
 def test_periodic_orbit_is_found_or_reported_and_balances_energy(model, p):
     system = MODELS[model]
     params = system.parameter_values(p.draw(parameters(model), label="params"))
-    o = hybrid.periodic_orbit(system, params, options=options("exact"), samples_per_period=64)
+    o = hybrid.periodic_orbit(
+        system, params, options=options("exact"), settings=hybrid.ShootingOptions(samples_per_period=64)
+    )
     if not o.converged:
         event(f"{model}: orbit not found")
         assert o.message

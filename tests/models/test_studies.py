@@ -31,7 +31,10 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
     system = hybrid_models.absorber()
     opts = hybrid.SolverOptions(rtol=1e-10, atol=1e-12)
     o = hybrid.periodic_orbit(
-        system, {**c.params, "Omega": c.peak_omega}, options=opts, samples_per_period=256
+        system,
+        {**c.params, "Omega": c.peak_omega},
+        options=opts,
+        settings=hybrid.ShootingOptions(samples_per_period=256),
     )
     assert o.converged
     assert o.half_peak_to_peak["x1"] == pytest.approx(c.peak_x1, rel=1e-6)
@@ -43,8 +46,8 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
             x0=o.x0,
             mode0=o.mode0,
             t0=o.t0,
-            transient_periods=0,
             options=opts,
+            settings=hybrid.ShootingOptions(transient_periods=0),
         )
         assert side.converged and side.half_peak_to_peak["x1"] < c.peak_x1
     # the refined peak is at least the largest continued point
