@@ -34,7 +34,9 @@ def test_entry_points_name_hybrid_models_and_load():
         installed = {ep.name: ep for ep in entry_points(group=group)}
         for name, target in entries.items():
             assert installed[name].value == target, (group, name)
-            assert installed[name].load() is not None
+            module, _, attr = target.partition(":")
+            named = importlib.import_module(module)
+            assert installed[name].load() is (getattr(named, attr) if attr else named), (group, name)
 
 
 def test_no_file_imports_a_top_level_models():
