@@ -17,12 +17,14 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 
 def test_the_models_folder_installs_as_hybrid_models():
     tool = PYPROJECT["tool"]["setuptools"]
-    assert "models" not in tool["packages"] and "hybrid_models" in tool["packages"]
+    assert "models" not in tool["packages"]
+    assert "hybrid_models" in tool["packages"]
     assert tool["package-dir"] == {"hybrid_models": "models"}
     assert tool["package-data"] == {"hybrid_models": ["*.toml"]}
     # the installed package carries every model file of the folder
     shipped = {p.name for p in (ROOT / "models").glob("*.toml")}
-    assert shipped and {p.name for p in Path(hybrid_models.__file__).parent.glob("*.toml")} == shipped
+    assert shipped
+    assert {p.name for p in Path(hybrid_models.__file__).parent.glob("*.toml")} == shipped
     assert hybrid_models.coulomb().name == "coulomb"
 
 

@@ -132,13 +132,16 @@ def test_unbounded_branch_stops_with_its_label(coulomb):
     system, params = coulomb
     br = continue_orbits(system, params, None, (1.3, 0.9))
     assert br.parameter == "Omega"  # the forcing frequency, from the period
-    assert br.status == "stopped" and br.reason == "unbounded", br.message
-    assert br.special[-1].kind == "unbounded" and br.special[-1].status == "bracketed"
+    assert br.status == "stopped", br.message
+    assert br.reason == "unbounded", br.message
+    assert br.special[-1].kind == "unbounded"
+    assert br.special[-1].status == "bracketed"
     assert [s.kind for s in br.special].count("fold") == 0
     assert "grows without bound" in br.message
     amp = br.amplitude("x")
     size0 = max(br.points[0].amplitude["x"], br.points[0].amplitude["v"])
-    assert np.all(np.isfinite(amp)) and amp.max() <= 1e6 * size0
+    assert np.all(np.isfinite(amp))
+    assert amp.max() <= 1e6 * size0
     assert 1.0 < br.p[-1] < 1.001
     # Every orbit of the branch up to the resonance is Den Hartog's non-stop motion (amplitudes from
     # 0.7 to 4e5 m).
@@ -186,7 +189,9 @@ def test_frequency_response_matches_den_hartog_below_resonance(coulomb):
         assert k * X * (W / math.sqrt(k / m)) ** 2 > R
         assert o.mode_fractions.get("stick", 0.0) == 0.0
         assert abs(o.amplitude["x"] - X) <= den_hartog_tolerance(m, k, W) * X, W
-    assert br.p[0] == 0.6 and br.p[-1] >= 0.98 and len(br.points) >= 10
+    assert br.p[0] == 0.6
+    assert br.p[-1] >= 0.98
+    assert len(br.points) >= 10
 
 
 # ----------------------------------------------------------------------------
@@ -211,10 +216,12 @@ def test_interrupted_frc_keeps_the_rows_written(tmp_path, capsys, monkeypatch):
     out, err = capsys.readouterr()
     assert code == 130
     assert out == ""
-    assert "interrupted" in err and "Traceback" not in err
+    assert "interrupted" in err
+    assert "Traceback" not in err
     (line,) = [ln for ln in err.splitlines() if "interrupted" in ln]
     rows = list(csv.DictReader((tmp_path / "frc.csv").open()))
-    assert len(rows) >= 5 and f"{len(rows)} periodic orbits kept" in line
+    assert len(rows) >= 5
+    assert f"{len(rows)} periodic orbits kept" in line
     assert len({r["Omega"] for r in rows}) == len(rows)
 
 
@@ -245,9 +252,11 @@ def test_frc_cli_writes_every_row_once(tmp_path, capsys):
     for r in rows:
         W = float(r["Omega"])
         X = den_hartog(m, k, R, F, W)
-        assert r["transitions_per_period"] == "4" and float(r["fraction_stick"]) == 0.0, r
+        assert r["transitions_per_period"] == "4", r
+        assert float(r["fraction_stick"]) == 0.0, r
         assert abs(float(r["amplitude_x"]) - X) <= den_hartog_tolerance(m, k, W) * X, (W, r["amplitude_x"], X)
-    assert min(float(r["Omega"]) for r in rows) == 1.1 and max(float(r["Omega"]) for r in rows) >= 1.6
+    assert min(float(r["Omega"]) for r in rows) == 1.1
+    assert max(float(r["Omega"]) for r in rows) >= 1.6
 
 
 # ----------------------------------------------------------------------------
@@ -285,22 +294,27 @@ def test_a_start_that_fails_at_the_range_end_is_retried_inside_it(coulomb):
     system, params = coulomb
     fr = frequency_response(system, params, (0.5, 0.56))
     first, *rest = fr.branches
-    assert first.reason == "no-start" and not first.points
-    assert rest and all(b.points for b in rest), [b.message for b in rest]
+    assert first.reason == "no-start"
+    assert not first.points
+    assert rest, [b.message for b in rest]
+    assert all(b.points for b in rest), [b.message for b in rest]
     assert rest[0].p[0] == 0.5 + 1e-3 * 0.06  # the first retry, inside the range
     # What no branch covers is reported; here the downward run from 0.56 passes 0.5.
     for a, b in fr.gaps:
         assert 0.5 <= a < b <= 0.5 + 2e-2 * 0.06
     covered = sorted((float(b.p.min()), float(b.p.max())) for b in rest)
-    assert covered[0][0] <= 0.5 + 2e-2 * 0.06 and max(hi for _, hi in covered) >= 0.56
+    assert covered[0][0] <= 0.5 + 2e-2 * 0.06
+    assert max(hi for _, hi in covered) >= 0.56
     assert all(o.converged for b in rest for o in b.points)
 
 
 def test_an_unforced_system_has_no_branch_to_follow():
     system = resolve_model("coulomb")
     br = continue_orbits(system, system.presets["free"], None, (0.5, 1.5))
-    assert br.status == "stopped" and br.reason == "degenerate", br.message
-    assert len(br.points) == 1 and "I - M vanishes" in br.message
+    assert br.status == "stopped", br.message
+    assert br.reason == "degenerate", br.message
+    assert len(br.points) == 1
+    assert "I - M vanishes" in br.message
 
 
 def test_a_family_without_a_gauge_is_followed_without_wandering(tmp_path):
@@ -349,7 +363,8 @@ def test_leaving_a_band_lands_on_the_gauge_member_not_on_a_grazing_one():
     graze = [o.params["Omega"] for o in br.points if 0 < o.transitions_per_period < band]
     assert len(graze) <= 1, graze  # at most the orbit kept at a mode-loss bracket
     past = [o for o in br.points if o.params["Omega"] > 0.8566]
-    assert past and all(o.transitions_per_period == 0 for o in past)
+    assert past
+    assert all(o.transitions_per_period == 0 for o in past)
     for o in past:
         a1, a2 = stick_amplitudes(o.params)
         assert o.amplitude["x1"] == pytest.approx(abs(float(a1)), rel=1e-8)

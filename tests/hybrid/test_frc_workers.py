@@ -36,8 +36,11 @@ def test_two_workers_give_the_same_curve_and_the_same_orbits_in_the_same_order()
             ),
         )
         assert waiting == ([] if workers == 1 else [2])
-        assert len(fr.pieces) == 2 and not fr.gaps, fr.messages()
-        assert fractions and fractions[-1] == pytest.approx(1.0) and max(fractions) <= 1.0
+        assert len(fr.pieces) == 2, fr.messages()
+        assert not fr.gaps, fr.messages()
+        assert fractions
+        assert fractions[-1] == pytest.approx(1.0)
+        assert max(fractions) <= 1.0
         runs[workers] = (seen, fr)
     (seen1, fr1), (seen2, fr2) = runs[1], runs[2]
     assert seen1 == seen2

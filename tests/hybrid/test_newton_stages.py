@@ -77,7 +77,8 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
     assert count.get(("run", newton.COARSE_RTOL), 0) >= 2
     assert count[("monodromy", IDA.rtol)] == 1  # the result's, at its section state
     ref = periodic_orbit(system, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT)
-    assert ref.converged and ref.t0 == o.t0
+    assert ref.converged, ref.message
+    assert ref.t0 == o.t0
     x, xr = o.x0[:5], ref.x0[:5]
     # accurate to cond(I - M) x rtol (the orbit's documented accuracy), here about 1e-7
     assert np.max(np.abs(x - xr)) / np.max(np.abs(xr)) <= 10 * o.condition * IDA.rtol

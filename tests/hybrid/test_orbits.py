@@ -146,7 +146,9 @@ def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
     system, params, ref = problem()
     # From rest at the reference's section (t0 = 0): one Newton step on a linear map.
     orbit = periodic_orbit(system, params, None, ref.mode0, t0=0.0, transient_periods=0)
-    assert orbit.converged and orbit.t0 == 0.0 and orbit.mode0 == ref.mode0
+    assert orbit.converged, orbit.message
+    assert orbit.t0 == 0.0
+    assert orbit.mode0 == ref.mode0
     assert orbit.iterations >= 1
     assert rel(orbit.x0, ref.x0) <= 1e-8
     n = len(ref.state_names)
@@ -161,7 +163,8 @@ def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
     if problem is op.forced_linear_2dof_slave:
         # u is a slave variable: its multiplier is a structural zero.
         assert orbit.state_names == (*ref.state_names, "u")
-        assert list(kinds[n:]) == ["structural"] and orbit.multipliers[n] == 0
+        assert list(kinds[n:]) == ["structural"]
+        assert orbit.multipliers[n] == 0
     else:
         assert orbit.state_names == ref.state_names
 
@@ -171,7 +174,8 @@ def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
 # ----------------------------------------------------------------------------
 def test_friction_monodromy_matches_finite_differences(friction_orbit):
     orbit = friction_orbit
-    assert orbit.converged and orbit.stability == "stable"
+    assert orbit.converged, orbit.message
+    assert orbit.stability == "stable"
     assert {"stick", "slip+", "slip-"} <= set(orbit.mode_sequence)
     assert fd_error(orbit, 1e-3) <= 1e-6
 
@@ -179,7 +183,8 @@ def test_friction_monodromy_matches_finite_differences(friction_orbit):
 def test_impact_monodromy_matches_finite_differences(impact, impact_orbit):
     _, params, ref = impact
     orbit = impact_orbit
-    assert orbit.converged and orbit.transitions_per_period == 1
+    assert orbit.converged, orbit.message
+    assert orbit.transitions_per_period == 1
     assert fd_error(orbit, 1e-3) <= 1e-6
     # The impact's saltation: det M = r^2 exp(-c T/m) exactly.
     det = float(np.linalg.det(orbit.monodromy))
@@ -215,7 +220,9 @@ def test_friction_orbit_at_the_reference_section(friction):
     # Section t0 = 0 in mid-slip, from a perturbed guess, no transient.
     guess = ref.x0 + np.array([2e-3, -1e-3, 0.0, 0.0, 0.0])
     orbit = periodic_orbit(system, params, guess, ref.mode0, t0=0.0, transient_periods=0)
-    assert orbit.converged and orbit.t0 == 0.0 and orbit.iterations >= 1
+    assert orbit.converged, orbit.message
+    assert orbit.t0 == 0.0
+    assert orbit.iterations >= 1
     assert np.max(np.abs(orbit.x0[:2] - ref.x0[:2])) <= 1e-8
     assert np.max(np.abs(orbit.monodromy - ref.monodromy)) <= 1e-7
     assert op.multiplier_distance(orbit.multipliers, ref.multipliers) <= 1e-7
@@ -227,7 +234,8 @@ def test_impact_orbit_at_the_reference_section(impact):
     system, params, ref = impact
     guess = ref.x0 + np.array([1e-3, 1e-3, 0.0, 0.0])
     orbit = periodic_orbit(system, params, guess, ref.mode0, t0=0.0, transient_periods=0)
-    assert orbit.converged and orbit.iterations >= 1
+    assert orbit.converged, orbit.message
+    assert orbit.iterations >= 1
     assert np.max(np.abs(orbit.x0[:2] - ref.x0[:2])) <= 1e-8
     assert np.max(np.abs(orbit.monodromy - ref.monodromy)) <= 1e-7
     (t_impact,) = orbit.switch_times
@@ -254,7 +262,8 @@ def test_duffing_continuation_locates_both_folds(duffing, duffing_branch):
     _, _, ref = duffing
     br = duffing_branch
     assert br.status == "completed", br.message
-    assert br.p[0] == 1.0 and br.p[-1] >= 1.4
+    assert br.p[0] == 1.0
+    assert br.p[-1] >= 1.4
     folds = [s for s in br.special if s.kind == "fold"]
     assert len(folds) == 2
     # Upper fold first (the resonant branch turns back), then the lower one.
@@ -306,7 +315,8 @@ def test_duffing_branch_stability_agrees_with_the_reference(duffing, duffing_bra
         o = periodic_orbit(
             system, {**params, "Omega": W}, start.x0, start.mode0, t0=start.t0, transient_periods=0
         )
-        assert o.converged and o.stability == expected
+        assert o.converged, o.message
+        assert o.stability == expected
         found.append(o)
     found.sort(key=lambda o: o.amplitude["x"])
     for o, r in zip(found, ref.orbits, strict=True):

@@ -61,7 +61,8 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     opts, tol = (EXACT, 1e-12) if integrator == "exact" else (None, 1e-9)
     ref = periodic_orbit(ab, _scaled(1.0, 0.85306), options=opts, tol=tol)
     o = periodic_orbit(ab, _scaled(c, 0.85306), options=opts, tol=tol)
-    assert ref.converged and o.converged, o.message
+    assert ref.converged, ref.message
+    assert o.converged, o.message
     assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
     if integrator == "exact":
         assert all(am.flow().eigen for am in exact_flows(Shooter(ab, o.params, EXACT).cs))
@@ -81,5 +82,6 @@ def test_continuation_in_engineering_units_locates_the_band_onset(c):
                       options=EXACT)  # fmt: skip
     assert br.status == "completed", br.message
     onset = [s for s in br.special if s.kind == "mode-gained"]
-    assert len(onset) == 1 and onset[0].status == "located"
+    assert len(onset) == 1
+    assert onset[0].status == "located"
     assert onset[0].parameter == pytest.approx(ONSET * w, rel=1e-10)

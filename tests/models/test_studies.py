@@ -25,7 +25,8 @@ def absorber_curve():
 
 def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(absorber_curve):
     c = absorber_curve
-    assert c.bounded and not c.gaps
+    assert c.bounded
+    assert not c.gaps
     assert WINDOWS[1][0] < c.peak_omega < WINDOWS[1][1]
     # an independent orbit: IDA, from rest with a transient, at the peak frequency
     system = hybrid_models.absorber()
@@ -46,7 +47,8 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
             transient_periods=0,
             options=opts,
         )
-        assert side.converged and side.half_peak_to_peak["x1"] < c.peak_x1
+        assert side.converged, side.message
+        assert side.half_peak_to_peak["x1"] < c.peak_x1
     # the refined peak is at least the largest continued point
     assert c.peak_x1 >= c.x1.max()
 
@@ -102,10 +104,21 @@ def test_structural_change_intersections_of_fig3(preset, count):
 
 def test_studies_have_the_papers_ranges_and_steps():
     r = STUDIES["absorber-R"].values
-    assert len(r) == 26 and r[0] == 0.3 and r[-1] == 0.8 and np.allclose(np.diff(r), 0.02)
+    assert len(r) == 26
+    assert r[0] == 0.3
+    assert r[-1] == 0.8
+    assert np.allclose(np.diff(r), 0.02)
     c = STUDIES["absorber-c3"].values
-    assert len(c) == 100 + 9 and c[0] == 0.01 and c[99] == 1.0 and c[-1] == 10.0
-    assert STUDIES["isolator-R"].values[0] == 0.9 and STUDIES["isolator-R"].values[-1] == 2.0
+    assert len(c) == 100 + 9
+    assert c[0] == 0.01
+    assert c[99] == 1.0
+    assert c[-1] == 10.0
+    assert STUDIES["isolator-R"].values[0] == 0.9
+    assert STUDIES["isolator-R"].values[-1] == 2.0
     assert len(STUDIES["isolator-R"].values) == 23
     i = STUDIES["isolator-c3"].values
-    assert len(i) == 10 + 9 + 9 and i[0] == 0.1 and i[9] == 1.0 and i[18] == 10.0 and i[-1] == 100.0
+    assert len(i) == 10 + 9 + 9
+    assert i[0] == 0.1
+    assert i[9] == 1.0
+    assert i[18] == 10.0
+    assert i[-1] == 100.0
