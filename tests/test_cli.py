@@ -206,6 +206,7 @@ def test_model_file_runs(tmp_path, capsys):
     assert math.isclose(summary["final_state"]["x"], 1.0, abs_tol=1e-6)
 
 
+@pytest.mark.slow
 def test_console_script_json_on_paper_defaults(tmp_path):
     # The acceptance command, run as a user would (the console script when installed).
     exe = [shutil.which("hybrid")] if shutil.which("hybrid") else [sys.executable, "-m", "hybrid.cli"]

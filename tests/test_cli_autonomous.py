@@ -4,6 +4,8 @@ import csv
 import json
 import math
 
+import pytest
+
 from hybrid.cli import main
 
 
@@ -27,6 +29,7 @@ def test_orbit_of_an_autonomous_model(tmp_path, capsys):
     assert "the period is an unknown" in out
 
 
+@pytest.mark.slow
 def test_cont_finds_the_hopf_point_and_its_branch(tmp_path, capsys):
     code, out, err = run(
         ["cont", "belt_stribeck", "--param", "v_b", "--range", "1.0", "1.3", "--out", str(tmp_path)], capsys

@@ -73,6 +73,7 @@ def test_tiny_masses_stop_quickly_saying_why(capsys, tmp_path):
     assert "times the forcing frequency (dynamics far faster than the forcing" in line
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "argv",
     [

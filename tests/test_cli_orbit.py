@@ -151,6 +151,7 @@ def test_orbit_text_summary(tmp_path, capsys):
     assert "model `absorber`, preset `standard`" in err
 
 
+@pytest.mark.slow
 def test_orbit_without_bounded_solution_exits_1(tmp_path, capsys):
     # Coulomb oscillator forced at resonance with F/R = 5 > 4/pi: the response grows without bound.
     code, out, err = run(
@@ -216,6 +217,7 @@ def test_bad_option_values_exit_2(argv, capsys):
     assert "Traceback" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
     # Upper end of the absorber's stick-slip band at the second resonance (about 6 s).
     code, out, err = run(

@@ -156,6 +156,7 @@ def _try_run(system) -> str:
     return "ran" if tr.success else "run failed"
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=400)
 @given(mutated_models())
 def test_fuzz_structured_model_edits_end_in_a_model_or_a_clean_error(data):
@@ -191,6 +192,7 @@ def mutated_texts(draw) -> bytes:
     return text
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=300)
 @given(mutated_texts())
 def test_fuzz_model_file_bytes_end_in_a_model_or_a_clean_error(tmp_path_factory, text):
@@ -249,6 +251,7 @@ def cli_arguments(draw, out: str) -> list[str]:
     return argv
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=150)
 @given(data=st.data())
 def test_fuzz_cli_arguments_end_in_exit_code_0_1_2_without_traceback(tmp_path_factory, data):

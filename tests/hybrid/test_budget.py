@@ -416,6 +416,7 @@ def test_a_strong_forcing_from_rest_is_integrated_with_a_small_first_step():
     assert o.converged, o.message
 
 
+@pytest.mark.slow
 def test_orbit_at_an_undamped_resonance_says_no_bounded_orbit_and_what_to_try():
     # R = 0 at the resonance of the slipping (linear, undamped) system: no bounded orbit
     system = hybrid_models.absorber()

@@ -16,6 +16,7 @@ import re
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 import hybrid
 from hybrid import (
@@ -132,6 +133,7 @@ def _check_cold_start(system, params) -> None:
         assert _relative_difference(cold, fb) <= 10 * max(cold.condition, fb.condition) * 1e-10
 
 
+@pytest.mark.slow
 def test_isolator_cold_start_close_to_the_first_peak_finds_the_stable_orbit():
     # issue 7: `hybrid orbit isolator --set R=0.9 --omega 0.85428` failed ("Newton's method did not
     # converge"), though `hybrid frc` passes through a stable stick-slip orbit there
@@ -139,6 +141,7 @@ def test_isolator_cold_start_close_to_the_first_peak_finds_the_stable_orbit():
     _check_cold_start(system, system.preset("standard", R=0.9, Omega=0.85428))
 
 
+@pytest.mark.slow
 def test_absorber_cold_start_at_the_stuck_resonance_finds_the_stable_orbit():
     # the absorber at its first natural frequency (the peak of the stuck system; Newton from the
     # 10-period transient failed there, "an orbit may still exist")

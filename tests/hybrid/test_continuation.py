@@ -35,6 +35,7 @@ def den_hartog_tolerance(m: float, k: float, W: float) -> float:
 
 
 # ----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_duffing_folds_located_to_1e8():
     system, params, ref = op.duffing()
     br = continue_orbits(
@@ -52,6 +53,7 @@ def test_duffing_folds_located_to_1e8():
     assert len(set(br.p)) == len(br.p)
 
 
+@pytest.mark.slow
 def test_friction_loss_of_stick_located_to_1e8():
     system, params, _ = op.friction_oscillator()
     boundary = op.friction_stick_boundary(params)
@@ -64,6 +66,7 @@ def test_friction_loss_of_stick_located_to_1e8():
     assert [s.kind for s in br.special] == ["mode-lost"]
 
 
+@pytest.mark.slow
 def test_located_with_a_coarse_tolerance_is_still_honest():
     """A loose locate_tol: the point is located to it, not to more than it says."""
     system, params, _ = op.friction_oscillator()
@@ -83,6 +86,7 @@ def test_located_with_a_coarse_tolerance_is_still_honest():
     assert lost.interval[0] - 1e-8 <= boundary <= lost.interval[1] + 1e-8, (lost.interval, boundary)
 
 
+@pytest.mark.slow
 def test_unlocated_points_are_bracketed():
     system, params, ref = op.duffing()
     br = continue_orbits(
@@ -128,6 +132,7 @@ def coulomb():
     return system, dict(system.presets["forced"])
 
 
+@pytest.mark.slow
 def test_unbounded_branch_stops_with_its_label(coulomb):
     system, params = coulomb
     br = continue_orbits(system, params, None, (1.3, 0.9))
@@ -287,6 +292,7 @@ def test_public_names_and_empty_branch():
         continue_orbits(system, dict(system.presets["forced"]), "Omega", (1.1, 1.2), step=0.1)
 
 
+@pytest.mark.slow
 def test_a_start_that_fails_at_the_range_end_is_retried_inside_it(coulomb):
     """At Omega = 0.5 (r = 1/2) the forced Coulomb oscillator's orbit is degenerate (the exact
     integrator finds a family there, multiplier 1): Newton from a transient does not converge at
@@ -317,6 +323,7 @@ def test_an_unforced_system_has_no_branch_to_follow():
     assert "I - M vanishes" in br.message
 
 
+@pytest.mark.slow
 def test_a_family_without_a_gauge_is_followed_without_wandering(tmp_path):
     """The absorber's pure-stick orbits form a family (the stuck offset is free: a multiplier 1). A model
     file without `[orbit] gauge` used to let the continuation drift along the family: seven spurious
@@ -385,6 +392,7 @@ def _slip_boundaries(p: dict, lo: float, hi: float, model: str = "absorber") -> 
     return [brentq(f, lo, w_res - 1e-9, xtol=1e-15), brentq(f, w_res + 1e-9, hi, xtol=1e-15)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("window", [(0.852, 0.858), (1.166, 1.175)])
 def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
     """The mode changes bounding each stick-slip band of the absorber (exact integrator) are where
@@ -407,6 +415,7 @@ def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
         assert abs(s.parameter - ref) <= s.accuracy + 1e-12, (s.kind, s.parameter, ref, s.accuracy)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("window", [(0.852, 0.858), (1.166, 1.175)])
 def test_ida_brackets_of_slip_onset_and_loss_contain_the_closed_form_crossings(window):
     """With IDA (rtol 1e-10) the same mode changes are bracketed, not located (a phase whose guard
@@ -429,6 +438,7 @@ def test_ida_brackets_of_slip_onset_and_loss_contain_the_closed_form_crossings(w
         assert lo <= ref <= hi and hi - lo <= 1e-6, (s.kind, s.status, s.interval, ref)
 
 
+@pytest.mark.slow
 def test_frc_cli_locates_the_isolators_band_edges_on_the_branch_not_on_a_grazing_member(tmp_path):
     """`hybrid frc isolator --integrator exact` used to report both losses of slip 3.7e-4 and 1.2e-4
     rad/s beyond the closed-form band edges, as 'located +-1e-11', with the amplitude of a stick

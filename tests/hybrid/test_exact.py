@@ -201,6 +201,7 @@ BRANCHES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset", "omegas"), BRANCHES, ids=[b[0] for b in BRANCHES])
 def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     """Exact orbits followed along a branch (each from its neighbour) against IDA at rtol 1e-12 from the
@@ -348,6 +349,7 @@ def test_parameters_read_at_call_time_equal_folded_ones(name):
     del owner
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
 def test_a_whole_exact_band_agrees_with_ida(name):
     """The whole first stick-slip band of each damper (standard preset), continued with the exact

@@ -13,6 +13,7 @@ EXACT = SolverOptions(integrator="exact")
 RANGE = (0.85, 1.175)  # both resonances of the absorber: two pieces
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_same_curve_and_the_same_orbits_in_the_same_order():
     """Each piece is computed by the same code from the same start, so the result is identical
     (not merely close) to the serial one, and ``on_point`` sees the same orbits in branch order."""

@@ -258,6 +258,7 @@ def test_friction_energy_balance(friction, friction_orbit):
 # ----------------------------------------------------------------------------
 # 5. Continuation through folds and over the stick boundary
 # ----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_duffing_continuation_locates_both_folds(duffing, duffing_branch):
     _, _, ref = duffing
     br = duffing_branch
@@ -325,6 +326,7 @@ def test_duffing_branch_stability_agrees_with_the_reference(duffing, duffing_bra
         assert op.multiplier_distance(o.multipliers, r.multipliers) <= 1e-7
 
 
+@pytest.mark.slow
 def test_friction_continuation_finds_the_stick_boundary(friction):
     system, params, _ = friction
     boundary = op.friction_stick_boundary(params)

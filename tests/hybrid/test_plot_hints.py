@@ -74,6 +74,7 @@ def test_declared_hints_win_and_missing_ones_are_derived():
     assert derived_plot_hints(bare) == {"displacements": ["x"], "shade_modes": [], "velocity": "v"}
 
 
+@pytest.mark.slow
 def test_model_file_without_plot_gets_a_full_figure(tmp_path, monkeypatch, capsys):
     # coulomb.toml without [plot], forced: both the CLI's PNG and the figure have data in every axis
     path = _without_plot("coulomb", tmp_path)

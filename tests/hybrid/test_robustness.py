@@ -235,6 +235,7 @@ def test_an_output_that_cannot_be_evaluated_at_a_sample_is_named_with_its_time()
     assert "ValueError" in tr.message
 
 
+@pytest.mark.slow
 def test_a_residual_stalled_by_an_ill_conditioned_map_says_so():
     """The forced Coulomb oscillator at half its natural frequency: stops of zero length, a
     multiplier 1 (I - M nearly singular). IDA's runs (rtol 1e-10) cannot bring the residual to

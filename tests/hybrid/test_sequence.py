@@ -88,6 +88,7 @@ def test_coulomb_non_stop_orbit_equals_den_hartog():
     assert o2.amplitude["x"] == pytest.approx(den_hartog(p["m"], p["k"], p["R"], p["F"], 0.83), rel=1e-11)
 
 
+@pytest.mark.slow
 def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
     ab = hybrid_models.absorber()
     base = ab.preset("standard")

@@ -194,6 +194,7 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
     assert "time limit" in res.points[(0,)]["reason"]
 
 
+@pytest.mark.slow
 def test_process_pool_equals_serial(serial, oscillator, tmp_path):
     system, params = oscillator
     axes, ref = serial
@@ -207,6 +208,7 @@ def test_process_pool_equals_serial(serial, oscillator, tmp_path):
         assert res.points[k]["peak"] == r["peak"]
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_equals_serial(serial, oscillator, tmp_path):
     distributed = pytest.importorskip("distributed")  # the test extra installs it: CI runs this
     system, params = oscillator
@@ -297,6 +299,7 @@ def alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
     """Kill a running ``hybrid sweep`` with SIGKILL once a point is written; --resume finishes it."""
     toml = tmp_path / "forced.toml"
@@ -466,6 +469,7 @@ def test_progress_bar_shows_done_failed_and_time_left():
     assert "3/10 done, 1 failed, 7.0 min left" in bar.bar.stream.getvalue()
 
 
+@pytest.mark.slow
 def test_chart_of_a_plane_with_unbounded_points(oscillator, tmp_path):
     system, params = oscillator
     axes = [hybrid.linear_axis("c", 0.0, 0.1, 0.1), hybrid.linear_axis("k", 0.8, 1.2, 0.4)]

@@ -75,6 +75,7 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     assert np.max(np.abs(mu - mu_ref)) <= (1e-10 if integrator == "exact" else 1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("c", [1e4, 1e6])
 def test_continuation_in_engineering_units_locates_the_band_onset(c):
     w = math.sqrt(c)  # forcing periods of 74 ms and 7.4 ms

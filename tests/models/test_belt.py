@@ -76,6 +76,7 @@ def test_stribeck_steady_sliding_and_hopf_against_closed_form(cf):
     assert abs(abs(eq.eigenvalues[0].imag) - math.sqrt(p["k"] / p["m"])) <= 1e-10
 
 
+@pytest.mark.slow
 def test_stribeck_hopf_branch_meets_the_stick_slip_branch_at_a_grazing():
     belt = hybrid_models.belt_stribeck()
     p = belt.preset("standard")

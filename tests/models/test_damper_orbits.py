@@ -96,6 +96,7 @@ def test_absorber_energy_balance(absorber_orbit):
     assert abs(e["relative_residual"]) <= 1e-8
 
 
+@pytest.mark.slow
 def test_absorber_perturbation_decays_as_the_multipliers_predict(absorber_orbit):
     o = absorber_orbit
     idx = state_indices(o)

@@ -193,6 +193,7 @@ def test_absorber_stick_slip_section_in_stick(absorber_exact):
     check_against_exact(orbit, exact, state_tol=2e-6, mu_tol=1e-4)
 
 
+@pytest.mark.slow
 def test_isolator_stick_slip():
     """Section in a stick phase, found without the engine: the paper's shooting on the Karnopp model
     from the grazing stick orbit (the App. A response scaled to the structural-change limit A_L of
@@ -239,6 +240,7 @@ def test_isolator_stick_slip():
     assert 0.99 < abs(first.multipliers[0]) < 1.0
 
 
+@pytest.mark.slow
 def test_non_convergence_is_returned_as_data():
     """From the stick response at resonance (A1 = 8 m; the orbit has 3.3 m) Newton's method first
     falls to the grazing amplitude (~1.9 m, slip just starting), where no halving of the step

@@ -100,6 +100,7 @@ def test_network_friction_outputs_equal_the_hand_written_ones():
         assert _record("absorber outputs H, v_rel, W, D: largest relative difference", d) <= 1e-7, h
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("hand_name", "net_name", "preset"),
     [("absorber", "absorber_network", "fig3a"), ("isolator", "isolator_network", "fig4a")],
@@ -269,6 +270,7 @@ def _slips_in_one_period(system, p, omega) -> bool:
     return len(tr.events) > 0
 
 
+@pytest.mark.slow
 def test_sequential_element_stick_slip_band_against_the_hand_derivation():
     net = _net("sequential")
     p = net.preset("standard")

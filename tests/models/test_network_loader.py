@@ -430,6 +430,7 @@ def edited_networks(draw) -> dict:
     return data
 
 
+@pytest.mark.slow
 @FUZZ
 @given(edited_networks())
 def test_fuzz_network_reader_gives_a_model_or_a_clean_error(data):
@@ -522,6 +523,7 @@ FIELD_JUNK = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", NETWORKS)
 def test_every_field_of_every_shipped_network_takes_junk_cleanly(name):
     """Systematic: each field of each mass, element, force and [model]/[base] entry replaced by each junk value."""

@@ -88,6 +88,7 @@ def balance_ok(w: float, d: float, de: float, tol: float, floor: float = 1e-14) 
     return abs(w - d - de) <= tol * scale + floor
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", sorted(RANGES))
 @settings(PROPERTY, max_examples=25)
 @given(data=st.data())

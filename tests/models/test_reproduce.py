@@ -49,6 +49,7 @@ def _cell(text):
         return text
 
 
+@pytest.mark.slow
 def test_figure_5_writes_png_csv_json_from_the_same_data(tmp_path, capsys):
     out = tmp_path / "repro"
     code = main(["reproduce", "--figure", "5", "--out", str(out), "--workers", "1", "--no-progress"])

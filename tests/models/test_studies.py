@@ -23,6 +23,7 @@ def absorber_curve():
     return resonance_curve("absorber", study_params("absorber"), WINDOWS[1])
 
 
+@pytest.mark.slow
 def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(absorber_curve):
     c = absorber_curve
     assert c.bounded
@@ -53,6 +54,7 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
     assert c.peak_x1 >= c.x1.max()
 
 
+@pytest.mark.slow
 def test_below_the_smallest_bounded_friction_the_curve_says_unbounded():
     # R = 0.25 N is 15 % below R_min = 0.2936 N of the averaging model (resonance 1)
     c = resonance_curve("absorber", study_params("absorber", R=0.25), WINDOWS[1])
