@@ -22,9 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import hybrid_models
-from hybrid import ModelError, SolverOptions, load_system, simulate, system_from_dict
+from hybrid import FUNCTIONS, ModelError, SolverOptions, load_system, simulate, system_from_dict
 from hybrid.cli import main
-from hybrid.model.expr import FUNCTIONS
 
 MODEL_DIR = Path(hybrid_models.__file__).parent
 BASES = {name: tomllib.loads((MODEL_DIR / f"{name}.toml").read_text()) for name in ("coulomb", "absorber")}

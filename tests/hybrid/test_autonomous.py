@@ -11,9 +11,16 @@ import math
 import numpy as np
 import pytest
 
-from hybrid import HybridSystem, Mode, ModelError, SolverOptions, periodic_orbit, system_from_dict
-from hybrid.orbits.autonomous import autonomous_orbit
-from hybrid.orbits.equilibria import equilibrium
+from hybrid import (
+    HybridSystem,
+    Mode,
+    ModelError,
+    SolverOptions,
+    autonomous_orbit,
+    equilibrium,
+    periodic_orbit,
+    system_from_dict,
+)
 from hybrid.orbits.flowmap import FlowMap
 
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)

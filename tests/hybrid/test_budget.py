@@ -15,11 +15,11 @@ from hybrid import (
     Status,
     Transition,
     continue_orbits,
+    frequency_response,
     periodic_orbit,
     simulate,
     time_limit,
 )
-from hybrid.continuation.frc import frequency_response
 from hybrid.core.budget import Budget, BudgetExceeded
 from hybrid.engine.variational import Sensitivity
 from hybrid.model.compiled import CompiledSystem

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import HybridSystem, Mode, load_system, periodic_orbit, simulate
+from hybrid import HybridSystem, Mode, load_system, periodic_orbit, plot_hints, simulate
 from hybrid.cli import main
-from hybrid.model.plot_hints import derived_plot_hints, plot_hints
+from hybrid.model.plot_hints import derived_plot_hints
 from hybrid.plot.trajectory import orbit_figure, trajectory_figure
 
 MODELS = Path(hybrid_models.__file__).parent

@@ -6,9 +6,17 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import HybridSystem, Mode, ModelError, SolverOptions, Status, Transition, simulate
+from hybrid import (
+    HybridSystem,
+    Mode,
+    ModelError,
+    SolverOptions,
+    Status,
+    Transition,
+    simulate,
+    system_from_dict,
+)
 from hybrid.cli import main
-from hybrid.model.loader import system_from_dict
 
 
 def one_mode(rhs: str, guard: str = "x - 10", period: str | None = None, domain: str = "real"):

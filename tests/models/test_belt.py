@@ -16,11 +16,16 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import SolverOptions, simulate
-from hybrid.continuation.autonomous import hopf_branch, orbit_branch
-from hybrid.continuation.palc import PalcSettings
-from hybrid.orbits.autonomous import autonomous_orbit
-from hybrid.orbits.equilibria import equilibrium, locate_hopf
+from hybrid import (
+    PalcSettings,
+    SolverOptions,
+    autonomous_orbit,
+    equilibrium,
+    hopf_branch,
+    locate_hopf,
+    orbit_branch,
+    simulate,
+)
 
 P = {"m": 2.0, "k": 3.0, "c": 0.0, "Fs": 1.2, "Fk": 0.5}
 
