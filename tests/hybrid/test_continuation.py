@@ -105,7 +105,7 @@ def test_unlocated_points_are_bracketed():
     folds = [s for s in br.special if s.kind == "fold"]
     assert len(folds) == 2, [s.kind for s in br.special]
     assert [s.status for s in folds] == ["bracketed", "bracketed"]
-    p = np.asarray(br.p)
+    p = np.asarray(br.values)
     # The hardening branch turns back at the upper fold first, then at the lower one.
     for s, fold, turn in zip(folds, (ref.folds[1], ref.folds[0]), ("max", "min"), strict=True):
         lo, hi = s.interval
