@@ -3,9 +3,9 @@
 Issue 7, item 4 ("Cold starts that find the orbit"): from rest (all states 0 in the initial mode,
 the default transient of 10 forcing periods), does :func:`hybrid.periodic_orbit` return a
 converged orbit that is not unstable, at every Omega of the default frequency range
-(:func:`hybrid._frc.default_range`) with R over the paper's ranges (absorber 0.3-0.8 N, isolator
+(:func:`hybrid.continuation.frc.default_range`) with R over the paper's ranges (absorber 0.3-0.8 N, isolator
 0.9-2.0 N), close to the peaks included? And by which route (``PeriodicOrbit.route``: Newton
-from the transient, or the fallback, see :mod:`hybrid._coldstart`)?
+from the transient, or the fallback, see :mod:`hybrid.continuation.coldstart`)?
 
 Grid per damper: ``--n-r`` values of R evenly over its range (default 5) times 21 values of Omega:
 both ends of the default range, the midpoint between the two natural frequencies ``w1``, ``w2``
@@ -42,9 +42,9 @@ import time
 import numpy as np
 
 import hybrid
-from hybrid._frc import default_range
-from hybrid._linear import natural_frequencies
-from hybrid.cli import resolve_model
+from hybrid import resolve_model
+from hybrid.continuation.frc import default_range
+from hybrid.model.linear import natural_frequencies
 
 R_RANGES = {"absorber": (0.3, 0.8), "isolator": (0.9, 2.0)}
 #: Relative offsets from each natural frequency of the stuck system.
@@ -111,7 +111,7 @@ def edges(name: str, n_points: int, max_time: float) -> None:
         params = {**base, "R": float(R)}
         for w in natural_frequencies(system, params):
             t = time.perf_counter()
-            br = hybrid.continuation(
+            br = hybrid.continue_orbits(
                 system,
                 params,
                 "Omega",

@@ -77,7 +77,7 @@ CASES: list[tuple[str, dict, list[str], list[str]]] = [
     ("simulate --periods 10000", {}, ["hybrid", "simulate", "absorber", "--omega", "0.854", "--periods", "10000"], []),
     ("t_span (1e15, 1e15 + T)", {}, [PY, "-c", _lib("s = hybrid_models.coulomb()\np = s.preset('forced')\ntr = hybrid.simulate(s, p, (1e15, 1e15 + 7.85), {'x': 1, 'v': 0}, throw=False)\nprint(tr.status.name, tr.message)")], []),
     ("model without a period, long span", {"m.toml": _coulomb(**{'period = "2*pi/Omega"\n': ""})}, ["hybrid", "simulate", "m.toml", "--preset", "forced", "--t-end", "60000000", "--no-plot"], []),
-    ("periodic_orbit(samples_per_period=0)", {}, [PY, "-c", _lib("s = hybrid_models.absorber()\nprint(hybrid.periodic_orbit(s, s.preset('standard', Omega=0.854), samples_per_period=0).amplitude['x1'])")], []),
+    ("periodic_orbit(settings=ShootingOptions(samples_per_period=0))", {}, [PY, "-c", _lib("s = hybrid_models.absorber()\nprint(hybrid.periodic_orbit(s, s.preset('standard', Omega=0.854), settings=hybrid.ShootingOptions(samples_per_period=0)).amplitude['x1'])")], []),
     ("cond(I - M) of a fully stuck orbit", {}, [PY, "-c", _lib("s = hybrid_models.coulomb()\no = hybrid.periodic_orbit(s, s.preset('free'))\nprint(o.condition, o.message)")], []),
     ("progress callback raises", {}, [PY, "-c", "import hybrid_models, hybrid\ns = hybrid_models.coulomb()\ndef cb(f): raise KeyError('mine')\ntry:\n    hybrid.simulate(s, s.preset('forced'), (0, 10), {'x': 0, 'v': 0}, progress=cb, throw=False)\nexcept KeyError as e:\n    print('propagated', e)"], []),
     ("orbit at the stick resonance 0.8543090", {}, ["hybrid", "orbit", "absorber", "--omega", "0.8543090", "--no-plot"], []),

@@ -46,6 +46,7 @@ import time
 
 import numpy as np
 
+import hybrid
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit, simulate
 from hybrid_models.karnopp import shoot_karnopp
@@ -81,7 +82,13 @@ def main() -> None:
         for p in params:
             c = time.process_time()
             o = periodic_orbit(
-                absorber, p, prev.x0, prev.mode0, t0=prev.t0, transient_periods=0, options=opts
+                absorber,
+                p,
+                prev.x0,
+                prev.mode0,
+                t0=prev.t0,
+                options=opts,
+                settings=hybrid.ShootingOptions(transient_periods=0),
             )
             times.append(time.process_time() - c)
             assert o.converged, (p["Omega"], o.message)
@@ -104,7 +111,15 @@ def main() -> None:
     # References: orbits of the exact integrator at the same section times.
     refs = []
     for p, o in zip(params, chains[ENGINE_RTOLS[-1]][1], strict=True):
-        r = periodic_orbit(absorber, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT, tol=1e-12)
+        r = periodic_orbit(
+            absorber,
+            p,
+            o.x0,
+            o.mode0,
+            t0=o.t0,
+            options=EXACT,
+            settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0),
+        )
         assert r.converged, r.message
         refs.append(r)
 
@@ -185,7 +200,9 @@ def branch() -> None:
         "engine, exact, 16 samples": (SolverOptions(integrator="exact"), 16),
     }
     p0 = {**base, "Omega": float(BRANCH[0])}
-    start = periodic_orbit(absorber, p0, options=tight, tol=1e-11)
+    start = periodic_orbit(
+        absorber, p0, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
+    )
     # Section in the middle of the longest mode interval (from rest it may sit near a switch).
     sw = np.concatenate([start.switch_times, [start.switch_times[0] + start.period]])
     k = int(np.argmax(np.diff(sw)))
@@ -197,9 +214,8 @@ def branch() -> None:
         tr.y[j],
         str(tr.mode[j]),
         t0=float(tr.t[j]),
-        transient_periods=0,
         options=tight,
-        tol=1e-11,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11), transient_periods=0),
     )
     assert start.converged, start.message
     prev = {name: start for name in [*methods, "ref"]}
@@ -223,10 +239,10 @@ def branch() -> None:
                 o.x0,
                 o.mode0,
                 t0=o.t0 * ratio,
-                transient_periods=0,
                 options=opts,
-                tol=tol,
-                samples_per_period=samples,
+                settings=hybrid.ShootingOptions(
+                    newton=hybrid.NewtonOptions(tol=tol), transient_periods=0, samples_per_period=samples
+                ),
             )
 
         ref = neighbour(prev["ref"], EXACT, 1e-12)

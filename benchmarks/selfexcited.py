@@ -19,22 +19,27 @@ import json
 import math
 import os
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+import hybrid
 import hybrid_models
 from hybrid import SolverOptions, simulate
-from hybrid._autobranch import hopf_branch, orbit_branch
-from hybrid._autonomous import autonomous_orbit
-from hybrid._equilibria import locate_hopf
-from hybrid._palc import PalcSettings
+from hybrid.continuation.autonomous import AUTONOMOUS_CONTINUATION, hopf_branch, orbit_branch
+from hybrid.points.autonomous import autonomous_orbit
+from hybrid.points.equilibria import locate_hopf
 
 #: Tolerances of the Stribeck and damper branches: at rtol 1e-10 the trivial multiplier of the
 #: smooth cycles is off by up to 7e-8 (the variational runs' error), at 1e-12 by about 1e-9.
 BRANCH_OPTIONS = SolverOptions(rtol=1e-12, atol=1e-14)
+#: Continuation settings of the branches: orbits periodic to 1e-11.
+SETTINGS = replace(
+    AUTONOMOUS_CONTINUATION, ds=0.04, ds_max=0.12, newton=hybrid.NewtonOptions(tol=1e-11, max_iter=8)
+)
 
 
 def trivial_error(o) -> float:
@@ -63,8 +68,8 @@ def coulomb(out: Path) -> dict:
             o = autonomous_orbit(
                 belt,
                 {**p, "v_b": float(v_b)},
-                tol=1e-12,
                 options=SolverOptions(rtol=1e-10, atol=1e-12, integrator=integ),
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
             )
             row[f"period_{integ}"] = o.period
             row[f"amplitude_{integ}"] = o.half_peak_to_peak["x"]
@@ -126,8 +131,9 @@ def stribeck(out: Path) -> tuple[dict, list]:
     belt = hybrid_models.belt_stribeck()
     p = belt.preset("standard")
     v_star = p["vs"] * math.log((p["Fs"] - p["Fk"]) / (p["vs"] * (p["c"] + p["cf"])))
-    v_h, eq = locate_hopf(belt, p, "slip-", "v_b", (0.6, 2.5), {"x": 0.5, "w": -0.6})
-    settings = PalcSettings(ds=0.04, ds_max=0.12, tol=1e-11)
+    hp = locate_hopf(belt, p, "slip-", "v_b", (0.6, 2.5), {"x": 0.5, "w": -0.6})
+    v_h, eq = hp.parameter, hp.equilibrium
+    settings = SETTINGS
     smooth = hopf_branch(eq, "v_b", (0.2, 3.0), settings=settings, options=BRANCH_OPTIONS)
     cycle = autonomous_orbit(belt, p, options=BRANCH_OPTIONS)
     up = orbit_branch(cycle, "v_b", (0.2, 3.0), settings=settings, options=BRANCH_OPTIONS)
@@ -172,22 +178,22 @@ def stribeck(out: Path) -> tuple[dict, list]:
         "smooth_branch": {
             "reason": smooth.reason,
             "end": float(smooth.values[-1]),
-            "points": len(smooth.orbits),
-            "stability": sorted({o.stability for o in smooth.orbits}),
-            "first": {"v_b": float(smooth.values[0]), "period": smooth.orbits[0].period},
-            "max_trivial_error": max(trivial_error(o) for o in smooth.orbits),
+            "points": len(smooth.points),
+            "stability": sorted({o.stability for o in smooth.points}),
+            "first": {"v_b": float(smooth.values[0]), "period": smooth.points[0].period},
+            "max_trivial_error": max(trivial_error(o) for o in smooth.points),
         },
         "stick_slip_up": {
             "reason": up.reason,
             "end": float(up.values[-1]),
-            "points": len(up.orbits),
-            "max_trivial_error": max(trivial_error(o) for o in up.orbits),
+            "points": len(up.points),
+            "max_trivial_error": max(trivial_error(o) for o in up.points),
         },
         "stick_slip_down": {
             "reason": down.reason,
             "end": float(down.values[-1]),
-            "points": len(down.orbits),
-            "max_trivial_error": max(trivial_error(o) for o in down.orbits),
+            "points": len(down.points),
+            "max_trivial_error": max(trivial_error(o) for o in down.points),
         },
         "grazing_gap": abs(float(smooth.values[-1]) - float(up.values[-1])),
         "cycle_at_preset": {
@@ -204,19 +210,21 @@ def stribeck(out: Path) -> tuple[dict, list]:
             "state_error": float(np.max(np.abs(hits[-1].x_plus - cycle.x0))),
         },
     }
-    table = [("without damper, stick-slip", o) for o in down.orbits[::-1] + up.orbits]
-    table += [("without damper, unstable cycles from the Hopf point", o) for o in smooth.orbits]
+    table = [("without damper, stick-slip", o) for o in down.points[::-1] + up.points]
+    table += [("without damper, unstable cycles from the Hopf point", o) for o in smooth.points]
     return res, table
 
 
 def damper(out: Path, undamped: list) -> dict:
     sys_ = hybrid_models.belt_damper()
     p = sys_.preset("standard")
-    settings = PalcSettings(ds=0.04, ds_max=0.12, tol=1e-11)
-    cycle = autonomous_orbit(sys_, p, transient_periods=30, options=BRANCH_OPTIONS)
+    settings = SETTINGS
+    cycle = autonomous_orbit(
+        sys_, p, options=BRANCH_OPTIONS, settings=hybrid.ShootingOptions(transient_periods=30)
+    )
     up = orbit_branch(cycle, "v_b", (0.2, 3.0), settings=settings, options=BRANCH_OPTIONS)
     down = orbit_branch(cycle, "v_b", (0.2, 3.0), direction=-1, settings=settings, options=BRANCH_OPTIONS)
-    table = undamped + [("with damper, stick-slip", o) for o in down.orbits[::-1] + up.orbits]
+    table = undamped + [("with damper, stick-slip", o) for o in down.points[::-1] + up.points]
     with open(out / "damper.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["curve", "v_b", "amplitude_main_mass", "period", "stability", "max_abs_floquet"])
@@ -282,9 +290,9 @@ def damper(out: Path, undamped: list) -> dict:
         "down": {
             "reason": down.reason,
             "end": float(down.values[-1]),
-            "unstable_below": [float(o.params["v_b"]) for o in down.orbits if o.stability == "unstable"],
+            "unstable_below": [float(o.params["v_b"]) for o in down.points if o.stability == "unstable"],
         },
-        "max_trivial_error": max(trivial_error(o) for o in up.orbits + down.orbits),
+        "max_trivial_error": max(trivial_error(o) for o in up.points + down.points),
         "amplitude_at_preset": cycle.half_peak_to_peak["x1"],
     }
 

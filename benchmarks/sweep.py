@@ -23,7 +23,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import hybrid
-from hybrid.cli import resolve_model
+from hybrid import resolve_model
 
 
 def uptime() -> str:

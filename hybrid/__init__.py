@@ -6,58 +6,147 @@ transitions and resets. :func:`simulate` integrates it event-driven, with the
 slave (algebraic) variables of each mode solved as a DAE by IDA.
 """
 
-from ._autobranch import EquilibriumBranch as EquilibriumBranch
-from ._autobranch import OrbitBranch as OrbitBranch
-from ._autobranch import equilibrium_branch as equilibrium_branch
-from ._autobranch import hopf_branch as hopf_branch
-from ._autobranch import orbit_branch as orbit_branch
-from ._autonomous import autonomous_orbit as autonomous_orbit
-from ._budget import time_limit as time_limit
-from ._continuation import Branch as Branch
-from ._continuation import SpecialPoint as SpecialPoint
-from ._continuation import continuation as continuation
-from ._continuation import forcing_parameter as forcing_parameter
-from ._equilibria import Equilibrium as Equilibrium
-from ._equilibria import equilibrium as equilibrium
-from ._equilibria import locate_hopf as locate_hopf
-from ._expr import FUNCTIONS as FUNCTIONS
-from ._expr import ExpressionError as ExpressionError
-from ._filippov import filippov_system as filippov_system
-from ._frc import FrequencyResponse as FrequencyResponse
-from ._frc import frequency_response as frequency_response
-from ._io import EventsCSVWriter as EventsCSVWriter
-from ._io import TrajectoryCSVWriter as TrajectoryCSVWriter
-from ._loader import load_system as load_system
-from ._loader import system_from_dict as system_from_dict
-from ._options import ContinuationOptions as ContinuationOptions
-from ._options import SolverOptions as SolverOptions
-from ._orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
-from ._orbit import PeriodicOrbit as PeriodicOrbit
-from ._palc import PalcSettings as PalcSettings
-from ._plothints import plot_hints as plot_hints
-from ._progress import ProgressBar as ProgressBar
-from ._record import Envelope as Envelope
-from ._record import Sink as Sink
-from ._record import Tee as Tee
-from ._shooting import periodic_orbit as periodic_orbit
-from ._simulate import SimulationError as SimulationError
-from ._simulate import initial_state as initial_state
-from ._simulate import simulate as simulate
-from ._sweep import Axis as Axis
-from ._sweep import SweepResult as SweepResult
-from ._sweep import linear_axis as linear_axis
-from ._sweep import load_sweep as load_sweep
-from ._sweep import log_axis as log_axis
-from ._sweep import model_hash as model_hash
-from ._sweep import sweep as sweep
-from ._system import HybridSystem as HybridSystem
-from ._system import Mode as Mode
-from ._system import ModelError as ModelError
-from ._system import Parameter as Parameter
-from ._system import Transition as Transition
-from ._system import Variable as Variable
-from ._trajectory import Status as Status
-from ._trajectory import Trajectory as Trajectory
-from ._trajectory import TransitionRecord as TransitionRecord
+from .continuation.autonomous import equilibrium_branch as equilibrium_branch
+from .continuation.autonomous import hopf_branch as hopf_branch
+from .continuation.autonomous import orbit_branch as orbit_branch
+from .continuation.branch import Branch as Branch
+from .continuation.branch import forcing_parameter as forcing_parameter
+from .continuation.forced import SpecialPoint as SpecialPoint
+from .continuation.forced import continue_orbits as continue_orbits
+from .continuation.frc import FrequencyResponse as FrequencyResponse
+from .continuation.frc import frequency_response as frequency_response
+from .continuation.periodic import periodic_orbit as periodic_orbit
+from .core.budget import time_limit as time_limit
+from .core.errors import AlgebraicSolveError as AlgebraicSolveError
+from .core.errors import BudgetExceeded as BudgetExceeded
+from .core.errors import ConvergenceError as ConvergenceError
+from .core.errors import ExpressionError as ExpressionError
+from .core.errors import GrazingSwitchError as GrazingSwitchError
+from .core.errors import HybridError as HybridError
+from .core.errors import InputError as InputError
+from .core.errors import InputTypeError as InputTypeError
+from .core.errors import IntegratorError as IntegratorError
+from .core.errors import ModelError as ModelError
+from .core.errors import NotAffineError as NotAffineError
+from .core.errors import ParameterOutOfDomain as ParameterOutOfDomain
+from .core.errors import SampleCapReached as SampleCapReached
+from .core.errors import SimulationError as SimulationError
+from .core.errors import WorkerError as WorkerError
+from .core.options import ContinuationOptions as ContinuationOptions
+from .core.options import NewtonOptions as NewtonOptions
+from .core.options import ShootingOptions as ShootingOptions
+from .core.options import SolverOptions as SolverOptions
+from .core.progress import ProgressBar as ProgressBar
+from .core.status import BranchStatus as BranchStatus
+from .core.status import PointStatus as PointStatus
+from .core.status import ResponseStatus as ResponseStatus
+from .core.status import SolveStatus as SolveStatus
+from .core.version import __version__ as __version__
+from .engine.io import EventsCSVWriter as EventsCSVWriter
+from .engine.io import TrajectoryCSVWriter as TrajectoryCSVWriter
+from .engine.record import Envelope as Envelope
+from .engine.record import Sink as Sink
+from .engine.record import Tee as Tee
+from .engine.simulate import initial_state as initial_state
+from .engine.simulate import simulate as simulate
+from .engine.trajectory import Status as Status
+from .engine.trajectory import Trajectory as Trajectory
+from .engine.trajectory import TransitionRecord as TransitionRecord
+from .model.elements import Mode as Mode
+from .model.elements import Parameter as Parameter
+from .model.elements import Transition as Transition
+from .model.elements import Variable as Variable
+from .model.expr import FUNCTIONS as FUNCTIONS
+from .model.filippov import filippov_system as filippov_system
+from .model.loader import load_system as load_system
+from .model.loader import system_from_dict as system_from_dict
+from .model.plot_hints import plot_hints as plot_hints
+from .model.registry import resolve_model as resolve_model
+from .model.system import HybridSystem as HybridSystem
+from .orbits.autonomous import autonomous_orbit as autonomous_orbit
+from .orbits.equilibria import Equilibrium as Equilibrium
+from .orbits.equilibria import HopfPoint as HopfPoint
+from .orbits.equilibria import equilibrium as equilibrium
+from .orbits.equilibria import locate_hopf as locate_hopf
+from .orbits.orbit import ORBIT_OPTIONS as ORBIT_OPTIONS
+from .orbits.orbit import PeriodicOrbit as PeriodicOrbit
+from .studies.sweep import Axis as Axis
+from .studies.sweep import SweepResult as SweepResult
+from .studies.sweep import linear_axis as linear_axis
+from .studies.sweep import load_sweep as load_sweep
+from .studies.sweep import log_axis as log_axis
+from .studies.sweep import model_hash as model_hash
+from .studies.sweep import sweep as sweep
 
-__version__ = "0.1.0"
+__all__ = [
+    "AlgebraicSolveError",
+    "autonomous_orbit",
+    "Axis",
+    "Branch",
+    "BranchStatus",
+    "BudgetExceeded",
+    "ContinuationOptions",
+    "continue_orbits",
+    "ConvergenceError",
+    "Envelope",
+    "Equilibrium",
+    "equilibrium",
+    "equilibrium_branch",
+    "EventsCSVWriter",
+    "ExpressionError",
+    "filippov_system",
+    "forcing_parameter",
+    "frequency_response",
+    "FrequencyResponse",
+    "FUNCTIONS",
+    "GrazingSwitchError",
+    "hopf_branch",
+    "HopfPoint",
+    "HybridError",
+    "HybridSystem",
+    "initial_state",
+    "InputError",
+    "InputTypeError",
+    "IntegratorError",
+    "linear_axis",
+    "load_sweep",
+    "load_system",
+    "locate_hopf",
+    "log_axis",
+    "Mode",
+    "model_hash",
+    "ModelError",
+    "NewtonOptions",
+    "NotAffineError",
+    "orbit_branch",
+    "ORBIT_OPTIONS",
+    "Parameter",
+    "ParameterOutOfDomain",
+    "periodic_orbit",
+    "PeriodicOrbit",
+    "plot_hints",
+    "PointStatus",
+    "ProgressBar",
+    "resolve_model",
+    "ResponseStatus",
+    "SampleCapReached",
+    "ShootingOptions",
+    "simulate",
+    "SimulationError",
+    "Sink",
+    "SolverOptions",
+    "SolveStatus",
+    "SpecialPoint",
+    "Status",
+    "sweep",
+    "SweepResult",
+    "system_from_dict",
+    "Tee",
+    "time_limit",
+    "Trajectory",
+    "TrajectoryCSVWriter",
+    "Transition",
+    "TransitionRecord",
+    "Variable",
+    "WorkerError",
+]

@@ -94,7 +94,12 @@ def ida_peak(model: str, params: dict, omega: float, start: tuple) -> Job:
 
 def _orbit(model: str, params: dict, integrator: str) -> dict:
     system = BUILTIN[model]()
-    o = hybrid.periodic_orbit(system, params, options=solver_options(integrator), samples_per_period=512)
+    o = hybrid.periodic_orbit(
+        system,
+        params,
+        options=solver_options(integrator),
+        settings=hybrid.ShootingOptions(samples_per_period=512),
+    )
     tr = o.trajectory
     return {
         "converged": o.converged,

@@ -23,7 +23,7 @@ parts of a one-dimensional mechanism:
   moves as ``y(t) = Y sin(Omega t)``.
 
 ``[parameters]``, ``[presets]``, and optionally ``[plot]`` and ``[orbit]``, are
-those of a mode-level file (:mod:`hybrid._loader`).
+those of a mode-level file (:mod:`hybrid.model.loader`).
 
 Derivation (see ``docs/models.md``): each friction element ``e`` between
 ``A`` and ``B`` is in one of the states ``stick``, ``slip+`` (``v_B > v_A``),
@@ -66,8 +66,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from hybrid import ExpressionError, ModelError
-from hybrid._expr import parse
-from hybrid._loader import _key, _short  # how a file's values are quoted in messages: one place
+from hybrid.model.expr import parse
+from hybrid.model.loader import _key, _short  # how a file's values are quoted in messages: one place
 
 __all__ = [
     "GROUND",

@@ -22,8 +22,8 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
 from hybrid import ProgressBar
-from hybrid._io import to_json  # one JSON convention (non-finite floats as null) for every output
-from hybrid.cli import writable_folder
+from hybrid.cli.common import writable_folder
+from hybrid.engine.io import to_json  # one JSON convention (non-finite floats as null) for every output
 
 __all__ = ["register", "run", "parse_figures", "parse_workers", "output_folder", "write_csv"]
 

@@ -176,13 +176,13 @@ def _gap_reasons(
         for b in fr.branches:
             if not b.points:
                 continue
-            ends = (float(np.min(b.p)), float(np.max(b.p)))
+            ends = (float(np.min(b.values)), float(np.max(b.values)))
             touches = math.isclose(ends[1], lo, rel_tol=0, abs_tol=1e-12) or math.isclose(
                 ends[0], hi, rel_tol=0, abs_tol=1e-12
             )
             if not touches:
                 continue
-            edge = b.points[int(np.argmin(np.abs(b.p - (lo if ends[1] <= lo + 1e-12 else hi))))]
+            edge = b.points[int(np.argmin(np.abs(b.values - (lo if ends[1] <= lo + 1e-12 else hi))))]
             if b.reason == "unbounded" or (
                 near and edge.half_peak_to_peak["x1"] > UNBOUNDED_GROWTH * typical
             ):
@@ -248,9 +248,8 @@ def refine_peak(
             x0=guess.x0,
             mode0=guess.mode0,
             t0=guess.t0,
-            transient_periods=0,
             options=options,
-            samples_per_period=64,
+            settings=hybrid.ShootingOptions(transient_periods=0, samples_per_period=64),
         )
         if not o.converged:
             return -best[1]
@@ -365,9 +364,8 @@ def ida_peak(model: str, params: dict, omega: float, start: tuple) -> tuple[floa
         t0=start[0],
         mode0=start[1],
         x0=np.asarray(start[2]),
-        transient_periods=0,
         options=solver_options("ida"),
-        samples_per_period=256,
+        settings=hybrid.ShootingOptions(transient_periods=0, samples_per_period=256),
     )
     return float(omega), float(o.half_peak_to_peak["x1"]) if o.converged else math.nan
 

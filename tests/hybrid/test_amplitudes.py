@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from orbit_problems import forced_linear_2dof
 
+import hybrid
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit, simulate
 
@@ -27,7 +28,9 @@ def closed_form_amplitudes(p: dict) -> dict[str, float]:
 @pytest.mark.parametrize("samples", [64, 512])
 def test_amplitudes_of_a_linear_oscillator_match_the_closed_form(samples):
     system, p, _ = forced_linear_2dof()
-    o = periodic_orbit(system, p, transient_periods=200, samples_per_period=samples)
+    o = periodic_orbit(
+        system, p, settings=hybrid.ShootingOptions(transient_periods=200, samples_per_period=samples)
+    )
     assert o.converged, o.message
     for name, a in closed_form_amplitudes(p).items():
         assert o.amplitude[name] == pytest.approx(a, rel=1e-9), name
@@ -38,7 +41,9 @@ def test_amplitudes_of_a_linear_oscillator_match_the_closed_form(samples):
 def test_sampled_maximum_alone_would_miss_the_closed_form():
     # the check above can fail: the largest sample of 64 per period is off by about 1e-3
     system, p, _ = forced_linear_2dof()
-    o = periodic_orbit(system, p, transient_periods=200, samples_per_period=64)
+    o = periodic_orbit(
+        system, p, settings=hybrid.ShootingOptions(transient_periods=200, samples_per_period=64)
+    )
     a = closed_form_amplitudes(p)["x2"]
     sampled = float(np.max(np.abs(o.trajectory["x2"])))
     assert abs(sampled - a) / a > 1e-5
@@ -48,7 +53,9 @@ def test_stick_slip_amplitudes_match_a_dense_tight_resimulation():
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.854)
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
-    o = periodic_orbit(system, p, options=tight, tol=1e-11)
+    o = periodic_orbit(
+        system, p, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
+    )
     assert o.converged, o.message
     tr = o.trajectory
     T = o.period
@@ -69,6 +76,7 @@ def test_stick_slip_amplitudes_match_a_dense_tight_resimulation():
         assert o.amplitude[n] == pytest.approx(ref, rel=1e-9), n
 
 
+@pytest.mark.slow
 def test_an_extremum_just_after_a_switch_is_found():
     """The isolator at Omega = 0.8528166 (standard preset): v1 is largest 5.4 ms after the stick -> slip+
     switch, while the largest *sample* is the switch itself. The refinement must look on the slip side

@@ -1,4 +1,4 @@
-"""Cold starts that find the orbit (issue 7, item 4; ``hybrid/_coldstart.py``).
+"""Cold starts that find the orbit (issue 7, item 4; ``hybrid/continuation/coldstart.py``).
 
 Where Newton's method from a 10-period transient fails (close to a peak, Floquet multipliers
 0.99 and more), :func:`hybrid.periodic_orbit` falls back on a continuation in the forcing
@@ -16,12 +16,20 @@ import re
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 import hybrid
-from hybrid import ContinuationOptions, SolverOptions, continuation, periodic_orbit, simulate
-from hybrid._coldstart import find_by_continuation
-from hybrid._linear import natural_frequencies
-from hybrid.cli import main, resolve_model
+from hybrid import (
+    ContinuationOptions,
+    SolverOptions,
+    continue_orbits,
+    periodic_orbit,
+    resolve_model,
+    simulate,
+)
+from hybrid.cli import main
+from hybrid.continuation.coldstart import find_by_continuation
+from hybrid.model.linear import natural_frequencies
 
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
 
@@ -45,12 +53,18 @@ def _reference(system, params, start: float):
     """The orbit at ``params`` on a continuation from ``Omega = start``: the branch's point nearest
     ``params["Omega"]``, corrected there (Newton from that point, no transient)."""
     om = params["Omega"]
-    br = continuation(system, params, "Omega", (start, om), settings=ContinuationOptions(locate=False))
-    ps = br.p
-    assert ps.size and (ps.min() - om) * (ps.max() - om) <= 0, br.message  # it passed through om
+    br = continue_orbits(system, params, "Omega", (start, om), settings=ContinuationOptions(locate=False))
+    ps = br.values
+    assert ps.size, br.message
+    assert (ps.min() - om) * (ps.max() - om) <= 0, br.message  # it passed through om
     o = br.points[int(np.argmin(np.abs(ps - om)))]
     ref = periodic_orbit(
-        system, params, o.x0, o.mode0, t0=o.t0 / o.period * (2 * np.pi / om), transient_periods=0
+        system,
+        params,
+        o.x0,
+        o.mode0,
+        t0=o.t0 / o.period * (2 * np.pi / om),
+        settings=hybrid.ShootingOptions(transient_periods=0),
     )
     assert ref.converged, ref.message
     return ref
@@ -67,7 +81,13 @@ def _relative_difference(orbit, ref) -> float:
 def _polished(orbit):
     """The orbit corrected at rtol 1e-12 from its own section (Newton, no transient)."""
     o = periodic_orbit(
-        orbit.system, orbit.params, orbit.x0, orbit.mode0, t0=orbit.t0, transient_periods=0, options=TIGHT
+        orbit.system,
+        orbit.params,
+        orbit.x0,
+        orbit.mode0,
+        t0=orbit.t0,
+        options=TIGHT,
+        settings=hybrid.ShootingOptions(transient_periods=0),
     )
     assert o.converged, o.message
     return o
@@ -81,7 +101,8 @@ def _check_against_independent_continuation(orbit, system, params) -> None:
     other = w1 * (1 - 5e-4)
     assert (other - params["Omega"]) * (start - params["Omega"]) < 0
     ref = _reference(system, params, other)
-    assert ref.mode_sequence and set(ref.mode_sequence) == set(orbit.mode_sequence)
+    assert ref.mode_sequence
+    assert set(ref.mode_sequence) == set(orbit.mode_sequence)
     assert np.allclose(np.abs(orbit.floquet_multipliers), np.abs(ref.floquet_multipliers), rtol=0, atol=1e-6)
     # at the default rtol 1e-10 each orbit is accurate to about cond(I - M) x rtol
     assert _relative_difference(orbit, ref) <= 10 * max(orbit.condition, ref.condition) * 1e-10
@@ -91,17 +112,19 @@ def _check_against_independent_continuation(orbit, system, params) -> None:
 
 def _fallback(system, params):
     """The fallback's orbit itself (whatever Newton from a transient does at ``params``)."""
-    failed = periodic_orbit(system, params, transient_periods=0, max_iter=1)
-    assert not failed.converged and failed.route == "none"
+    failed = periodic_orbit(
+        system,
+        params,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
+    )
+    assert not failed.converged
+    assert failed.route == "none"
     o = find_by_continuation(
         system,
         params,
         failed,
         options=hybrid.ORBIT_OPTIONS,
-        tol=1e-9,
-        max_iter=30,
-        transient_periods=10,
-        samples_per_period=512,
+        settings=hybrid.ShootingOptions(samples_per_period=512),
     )
     assert o.converged, o.message
     assert "found by continuation in Omega from" in o.message
@@ -112,7 +135,8 @@ def _check_cold_start(system, params) -> None:
     """From rest: converged, stable, and the orbit of the fallback and of an independent continuation."""
     cold = periodic_orbit(system, params)
     assert cold.converged, cold.message
-    assert cold.stability == "stable" and cold.transitions_per_period > 0
+    assert cold.stability == "stable"
+    assert cold.transitions_per_period > 0
     assert np.max(np.abs(cold.floquet_multipliers)) < 1
     fb = cold if cold.route != "newton" else _fallback(system, params)
     assert fb.stability == "stable"
@@ -121,6 +145,7 @@ def _check_cold_start(system, params) -> None:
         assert _relative_difference(cold, fb) <= 10 * max(cold.condition, fb.condition) * 1e-10
 
 
+@pytest.mark.slow
 def test_isolator_cold_start_close_to_the_first_peak_finds_the_stable_orbit():
     # issue 7: `hybrid orbit isolator --set R=0.9 --omega 0.85428` failed ("Newton's method did not
     # converge"), though `hybrid frc` passes through a stable stick-slip orbit there
@@ -128,6 +153,7 @@ def test_isolator_cold_start_close_to_the_first_peak_finds_the_stable_orbit():
     _check_cold_start(system, system.preset("standard", R=0.9, Omega=0.85428))
 
 
+@pytest.mark.slow
 def test_absorber_cold_start_at_the_stuck_resonance_finds_the_stable_orbit():
     # the absorber at its first natural frequency (the peak of the stuck system; Newton from the
     # 10-period transient failed there, "an orbit may still exist")
@@ -139,40 +165,49 @@ def test_absorber_cold_start_at_the_stuck_resonance_finds_the_stable_orbit():
 def test_no_fallback_without_a_transient():
     # with transient_periods=0 the guess is the caller's section: Newton's result as it is
     system = resolve_model("absorber")
-    o = periodic_orbit(system, system.preset("standard"), transient_periods=0, max_iter=1)
-    assert not o.converged and o.route == "none" and "fallback" not in o.message
+    o = periodic_orbit(
+        system,
+        system.preset("standard"),
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
+    )
+    assert not o.converged
+    assert o.route == "none"
+    assert "fallback" not in o.message
 
 
 def test_a_failed_fallback_says_what_it_tried(monkeypatch):
     # branches cut short (2 orbits each) never reach the requested frequency: each side is tried
     # once, and the result is Newton's failure with the fallback's attempts
-    import hybrid._coldstart as cs
+    import hybrid.continuation.coldstart as cs
 
-    real = cs.continuation
+    real = cs.continue_orbits
 
     def short(*args, settings, **kwargs):
         return real(*args, settings=replace(settings, max_points=2), **kwargs)
 
-    monkeypatch.setattr(cs, "continuation", short)
+    monkeypatch.setattr(cs, "continue_orbits", short)
     system = resolve_model("absorber")
     base = system.preset("standard")
     params = {**base, "Omega": float(natural_frequencies(system, base)[0])}
-    failed = periodic_orbit(system, params, transient_periods=0, max_iter=1)
+    failed = periodic_orbit(
+        system,
+        params,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
+    )
     o = cs.find_by_continuation(
         system,
         params,
         failed,
         options=hybrid.ORBIT_OPTIONS,
-        tol=1e-9,
-        max_iter=30,
-        transient_periods=10,
-        samples_per_period=64,
+        settings=hybrid.ShootingOptions(samples_per_period=64),
     )
-    assert not o.converged and o.route == "none"
+    assert not o.converged
+    assert o.route == "none"
     assert o.message.startswith(failed.message)
     assert "fallback (continuation in the forcing parameter)" in o.message
     tried = [float(x) for x in re.findall(r"continuation from Omega=([0-9.]+)", o.message)]
-    assert len(tried) == 2 and min(tried) < params["Omega"] < max(tried)  # both sides, once each
+    assert len(tried) == 2
+    assert min(tried) < params["Omega"] < max(tried)  # both sides, once each
 
 
 def test_orbit_json_and_text_say_which_route_found_it(tmp_path, capsys):

@@ -2,7 +2,7 @@
 
 References: the closed-form response of a forced undamped oscillator, cos/sin crossings at known
 angles, the work integral of a harmonic force in closed form, and the reduced Jacobian of
-:mod:`hybrid._linear` (slave variables eliminated independently).
+:mod:`hybrid.model.linear` (slave variables eliminated independently).
 """
 
 import math
@@ -10,12 +10,14 @@ import math
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid_models
-from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
-from hybrid._compiled import CompiledSystem
-from hybrid._dae import ROOT, TSTOP
-from hybrid._exact import ExactModeSolver, NotAffineError, affine_mode, affine_system
-from hybrid._linear import reduced_jacobian
+from hybrid import HybridSystem, Mode, NotAffineError, SolverOptions, Transition, simulate
+from hybrid.integrators.affine import affine_mode, affine_system
+from hybrid.integrators.base import ROOT, TSTOP
+from hybrid.integrators.exact import ExactModeSolver
+from hybrid.model.compiled import CompiledSystem, lend
+from hybrid.model.linear import reduced_jacobian
 
 
 def _oscillator(guard: str | None = None, direction: int = 0, extra: dict | None = None) -> HybridSystem:
@@ -67,8 +69,10 @@ def test_forced_oscillator_and_its_work_integral_are_exact():
     for t in ts:
         r = ex.step(t, 30.0, one_step=False)
         x, v = _exact_response(t, x0, v0, PARAMS)
-        assert r.t == t and r.status != ROOT
-        assert r.y[0] == pytest.approx(x, abs=1e-13) and r.y[1] == pytest.approx(v, abs=1e-13)
+        assert r.t == t
+        assert r.status != ROOT
+        assert r.y[0] == pytest.approx(x, abs=1e-13)
+        assert r.y[1] == pytest.approx(v, abs=1e-13)
     # work: int F sin(W t + phi) v dt, by Simpson on a fine grid of the closed form (error ~1e-13)
     tt = np.linspace(0.0, 25.0, 200_001)
     _, vv = _exact_response(tt, x0, v0, PARAMS)
@@ -85,7 +89,8 @@ def test_interpolation_inside_the_last_call_is_exact():
     for t in (0.1, 3.3, 9.99):
         y, yp = ex.interpolate(t)
         x, v = _exact_response(t, 1.0, 0.0, PARAMS)
-        assert y[0] == pytest.approx(x, abs=1e-13) and yp[0] == pytest.approx(v, abs=1e-13)
+        assert y[0] == pytest.approx(x, abs=1e-13)
+        assert yp[0] == pytest.approx(v, abs=1e-13)
 
 
 @pytest.mark.parametrize(("direction", "angle"), [(-1, math.acos(0.5)), (1, 2 * math.pi - math.acos(0.5))])
@@ -95,7 +100,8 @@ def test_guard_crossing_is_located_to_rounding(direction, angle):
     _, ex = _solver(_oscillator(guard="x - a", direction=direction), p, max_step=10.0)
     ex.start(0.0, np.array([1.0, 0.0, 0.0]), None)
     r = ex.step(20.0, 20.0, one_step=False)
-    assert r.status == ROOT and r.fired == (0,)
+    assert r.status == ROOT
+    assert r.fired == (0,)
     assert r.t == pytest.approx(angle / p["w0"], rel=1e-14)
     assert abs(r.y[0] - 0.5) <= 1e-15
 
@@ -108,14 +114,16 @@ def test_two_crossings_within_one_step_are_not_missed():
     ex.start(0.5, np.array([math.cos(0.5 * p["w0"]), -p["w0"] * math.sin(0.5 * p["w0"]), 0.0]), None)
     r = ex.step(20.0, 20.0, one_step=False)
     expected = (2 * math.pi - math.acos(0.999)) / p["w0"]
-    assert r.status == ROOT and r.t == pytest.approx(expected, rel=1e-13)
+    assert r.status == ROOT
+    assert r.t == pytest.approx(expected, rel=1e-13)
 
 
 def test_step_to_tstop_without_crossing():
     _, ex = _solver(_oscillator(guard="x - 5", direction=0), {**PARAMS})
     ex.start(0.0, np.array([0.1, 0.0, 0.0]), None)
     r = ex.step(50.0, 7.0, one_step=False)
-    assert r.status == TSTOP and r.t == 7.0
+    assert r.status == TSTOP
+    assert r.t == 7.0
 
 
 def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_eliminated():
@@ -127,7 +135,8 @@ def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_elimina
         assert names == tuple(absorber.variable_names[i] for i in am.d)
         nd = am.d.size
         assert np.allclose(am.M[:nd, :nd], A, rtol=1e-14, atol=1e-14)
-        assert am.omega == 0.854 and am.q.size == 2
+        assert am.omega == 0.854
+        assert am.q.size == 2
 
 
 def test_second_derivatives_of_a_mode_match_the_vector_field_along_the_flow():
@@ -193,6 +202,7 @@ BRANCHES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset", "omegas"), BRANCHES, ids=[b[0] for b in BRANCHES])
 def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     """Exact orbits followed along a branch (each from its neighbour) against IDA at rtol 1e-12 from the
@@ -207,19 +217,39 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     for om in omegas:
         p = system.preset(preset, Omega=om)
         if prev is None:
-            ex = periodic_orbit(system, p, options=exact, tol=1e-12)
+            ex = periodic_orbit(
+                system,
+                p,
+                options=exact,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+            )
         else:
             t0 = prev.t0 * prev.params["Omega"] / om  # same forcing phase
             ex = periodic_orbit(
-                system, p, prev.x0, prev.mode0, t0=t0, transient_periods=0, options=exact, tol=1e-12
+                system,
+                p,
+                prev.x0,
+                prev.mode0,
+                t0=t0,
+                options=exact,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0),
             )
         ref = periodic_orbit(
-            system, p, ex.x0, ex.mode0, t0=ex.t0, transient_periods=0, options=tight, tol=1e-11
+            system,
+            p,
+            ex.x0,
+            ex.mode0,
+            t0=ex.t0,
+            options=tight,
+            settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11), transient_periods=0),
         )
-        assert ref.converged and ex.converged, (om, ref.message, ex.message)
+        assert ref.converged, (om, ref.message, ex.message)
+        assert ex.converged, (om, ref.message, ex.message)
         assert ex.residual <= 1e-12  # the exact map: Newton converges to rounding (IDA's to its tolerance)
-        assert ref.t0 == ex.t0 and ex.mode_sequence == ref.mode_sequence, om
-        assert len(ex.mode_sequence) == 5 and ex.stability == ref.stability == "stable", om
+        assert ref.t0 == ex.t0, om
+        assert ex.mode_sequence == ref.mode_sequence, om
+        assert len(ex.mode_sequence) == 5, om
+        assert ex.stability == ref.stability == "stable", om
         scale = max(abs(v) for v in ref.amplitude.values())
         for k, v in ref.amplitude.items():
             assert abs(ex.amplitude[k] - v) <= 1e-7 * max(abs(v), 1e-3 * scale), (om, k)
@@ -237,7 +267,7 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
 def test_parametric_analysis_equals_the_folded_one(name, preset):
     """The analysis done once on the system's expressions (parameters as symbols), evaluated at random
     parameter values, gives the M, P, Q, W of the analysis of the expressions with the values folded in."""
-    from hybrid._exact import affine_flows
+    from hybrid.integrators.affine import affine_flows
 
     system = getattr(hybrid_models, name)()
     base = system.preset(preset)
@@ -257,7 +287,7 @@ def test_parametric_analysis_equals_the_folded_one(name, preset):
 
 
 def test_parametric_analysis_names_the_mode_of_a_second_frequency():
-    from hybrid._exact import affine_flows
+    from hybrid.integrators.affine import affine_flows
 
     system = _oscillator(extra={"v": "-x + sin(W*t) + sin(w0*t)"})
     with pytest.raises(NotAffineError, match=r"mode `free`: two forcing frequencies"):
@@ -295,7 +325,9 @@ def test_cli_integrator_exact(tmp_path, capsys):
     import json
 
     d = json.loads(out)
-    assert d["converged"] and d["transitions_per_period"] == 4 and d["residual"] <= 1e-12
+    assert d["converged"]
+    assert d["transitions_per_period"] == 4
+    assert d["residual"] <= 1e-12
     bad = tmp_path / "cubic.toml"
     bad.write_text(
         '[model]\nname = "cubic"\nperiod = "2*pi/W"\ninitial_mode = "m"\n[variables.x]\n[variables.v]\n'
@@ -305,7 +337,9 @@ def test_cli_integrator_exact(tmp_path, capsys):
         ["simulate", str(bad), "--integrator", "exact", "--out", str(tmp_path / "o"), "--periods", "1"]
     )
     err = capsys.readouterr().err
-    assert code == 2 and "derivative of `v` is not affine in `x`" in err and err.count("\n") == 1
+    assert code == 2, err
+    assert "derivative of `v` is not affine in `x`" in err
+    assert err.count("\n") == 1
 
 
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
@@ -328,11 +362,13 @@ def test_parameters_read_at_call_time_equal_folded_ones(name):
             assert np.allclose(a.dFdy(t, y), b.dFdy(t, y), rtol=1e-13, atol=1e-13)
             assert np.allclose(a.rhs(t, y), b.rhs(t, y), rtol=1e-13, atol=1e-13)
             assert np.allclose(a.taylor(t, y, 3), b.taylor(t, y, 3), rtol=1e-12, atol=1e-12)
-    borrowed = CompiledSystem.borrow(system, base, owner := type("Owner", (), {})())
+    borrowed, release = lend(system, base, owner := type("Owner", (), {})(), every_parameter=True)
     assert borrowed.params == system.parameter_values(base)
+    release()
     del owner
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
 def test_a_whole_exact_band_agrees_with_ida(name):
     """The whole first stick-slip band of each damper (standard preset), continued with the exact
@@ -345,11 +381,11 @@ def test_a_whole_exact_band_agrees_with_ida(name):
     phase the other does not (different mode sequences), and the orbit at a located mode change (a
     phase of vanishing length: what moves only in it, e.g. the slip velocity, has an amplitude like
     the square root of the state's error)."""
-    from hybrid import SolverOptions, continuation, periodic_orbit
+    from hybrid import SolverOptions, continue_orbits, periodic_orbit
 
     system = getattr(hybrid_models, name)()
     p = system.preset("standard")
-    br = continuation(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
     assert br.status == "completed", br.message
     at_change = {
         s.index for s in br.special if s.kind in ("mode-gained", "mode-lost") and s.status == "located"
@@ -364,7 +400,13 @@ def test_a_whole_exact_band_agrees_with_ida(name):
         for rtol in (1e-12, 5e-13):
             tight = SolverOptions(rtol=rtol, atol=rtol * 1e-2)
             q = periodic_orbit(
-                system, o.params, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=tight, tol=1e-11
+                system,
+                o.params,
+                o.x0,
+                o.mode0,
+                t0=o.t0,
+                options=tight,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11), transient_periods=0),
             )
             if q.converged:
                 break
@@ -378,7 +420,8 @@ def test_a_whole_exact_band_agrees_with_ida(name):
             assert abs(q.amplitude[k] - v) <= tol * scale, (o.params["Omega"], k, q.condition)
         assert np.max(np.abs(q.switch_times - o.switch_times)) <= tol * o.period
         fe, fq = o.floquet_multipliers, q.floquet_multipliers
-        assert fe.size == fq.size and max(float(np.min(np.abs(fq - z))) for z in fe) <= tol
+        assert fe.size == fq.size
+        assert max(float(np.min(np.abs(fq - z))) for z in fe) <= tol
     assert skipped <= 2
 
 
@@ -388,7 +431,7 @@ def test_frechet_derivative_of_the_flow_matches_a_central_difference(defective):
     difference of the exponential (``scipy.linalg.expm``, step 1e-5: error about 1e-10)."""
     from scipy.linalg import expm
 
-    from hybrid._exact import Flow
+    from hybrid.integrators.flow import Flow
 
     rng = np.random.default_rng(3)
     if defective:  # a Jordan block: no eigenvector basis
@@ -408,13 +451,16 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
     flows) against IDA's variational equations at rtol 1e-12 (the central difference of two exact
     flows it replaces agreed to 6e-9 only)."""
     from hybrid import SolverOptions, periodic_orbit
-    from hybrid._shooting import Shooter
+    from hybrid.orbits.shooter import Shooter
 
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.8545)
     tight = SolverOptions(rtol=1e-12, atol=1e-14)
-    o = periodic_orbit(system, p, options=tight, tol=1e-11)
-    assert o.converged and o.transitions_per_period == 4, o.message
+    o = periodic_orbit(
+        system, p, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
+    )
+    assert o.converged, o.message
+    assert o.transitions_per_period == 4, o.message
     cols = []
     for opts in (SolverOptions(integrator="exact"), tight):
         sh = Shooter(system, p, opts, free="Omega")
@@ -444,7 +490,8 @@ def test_a_simulation_sampled_per_period_runs_on_the_exact_integrator(spp):
         for integ in ("exact", "ida")
     }
     ex, ida = runs["exact"], runs["ida"]
-    assert ex.success and ida.success, (ex.message, ida.message)
+    assert ex.success, (ex.message, ida.message)
+    assert ida.success, (ex.message, ida.message)
     assert ex.t.size == 20 * spp + 1
     np.testing.assert_array_equal(ex.t, ida.t)
     np.testing.assert_allclose(ex["x"], ida["x"], rtol=0, atol=1e-8)
@@ -468,5 +515,6 @@ def test_a_crossing_on_the_boundary_of_two_steps_is_taken(max_step):
         dict.fromkeys(system.variable_names, 0.0),
         options=SolverOptions(integrator="exact", max_step=max_step),
     )
-    assert tr.success and tr.events, tr.message
+    assert tr.success, tr.message
+    assert tr.events, tr.message
     assert abs(tr.events[0].t - t_break) <= 1e-12

@@ -9,11 +9,13 @@ import numpy as np
 import pytest
 from problems import nonlinear_dae, riccati
 
-import hybrid._shooting as shooting
+import hybrid
+import hybrid.orbits.newton as newton
+import hybrid.orbits.shooter as shooting
 import hybrid_models
 from hybrid import SolverOptions, periodic_orbit
-from hybrid._compiled import CompiledSystem
-from hybrid._dae import ModeSolver, SensitivitySolver
+from hybrid.integrators.ida import ModeSolver, SensitivitySolver
+from hybrid.model.compiled import CompiledSystem
 
 IDA = SolverOptions(rtol=1e-10, atol=1e-12)
 EXACT = SolverOptions(integrator="exact")
@@ -58,10 +60,10 @@ def _neighbour(system, start, p, options, tol=1e-9):
         start.x0,
         start.mode0,
         t0=start.t0 * start.params["Omega"] / p["Omega"],  # the same forcing phase
-        transient_periods=0,
         options=options,
-        samples_per_period=16,
-        tol=tol,
+        settings=hybrid.ShootingOptions(
+            newton=hybrid.NewtonOptions(tol=tol), transient_periods=0, samples_per_period=16
+        ),
     )
 
 
@@ -73,10 +75,13 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
     o = _neighbour(system, start, p, IDA)
     assert o.converged, o.message
     # the first iterations ran at the coarse tolerance, the result at the requested one
-    assert count.get(("run", shooting.COARSE_RTOL), 0) >= 2
+    assert count.get(("run", newton.COARSE_RTOL), 0) >= 2
     assert count[("monodromy", IDA.rtol)] == 1  # the result's, at its section state
-    ref = periodic_orbit(system, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT)
-    assert ref.converged and ref.t0 == o.t0
+    ref = periodic_orbit(
+        system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
+    assert ref.converged
+    assert ref.t0 == o.t0
     x, xr = o.x0[:5], ref.x0[:5]
     # accurate to cond(I - M) x rtol (the orbit's documented accuracy), here about 1e-7
     assert np.max(np.abs(x - xr)) / np.max(np.abs(xr)) <= 10 * o.condition * IDA.rtol
@@ -99,14 +104,16 @@ def test_a_failing_coarse_stage_falls_back_on_the_requested_tolerances(absorber_
     mono = shooting.Shooter.monodromy
 
     def fails_when_coarse(self, tr):
-        if self.options.rtol == shooting.COARSE_RTOL:
+        if self.options.rtol == newton.COARSE_RTOL:
             raise RuntimeError("IDA failed in the variational equations")
         return mono(self, tr)
 
     monkeypatch.setattr(shooting.Shooter, "monodromy", fails_when_coarse)
     o = _neighbour(system, start, p, IDA)
     assert o.converged, o.message
-    ref = periodic_orbit(system, p, o.x0, o.mode0, t0=o.t0, transient_periods=0, options=EXACT)
+    ref = periodic_orbit(
+        system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
     assert np.max(np.abs(o.x0[:5] - ref.x0[:5])) / np.max(np.abs(ref.x0[:5])) <= 10 * o.condition * 1e-10
 
 

@@ -14,9 +14,9 @@ import orbit_problems as op
 import pytest
 
 import hybrid
-import hybrid._shooting as shooting_module
-from hybrid import SolverOptions, continuation, periodic_orbit, simulate
-from hybrid._variational import Sensitivity
+from hybrid import SolverOptions, continue_orbits, periodic_orbit, simulate
+from hybrid.engine.eventloop import Run
+from hybrid.engine.variational import Sensitivity
 
 #: Tolerances of the finite-difference period maps (tighter than the orbit's own runs).
 FD_OPTIONS = SolverOptions(rtol=1e-12, atol=1e-14)
@@ -125,16 +125,13 @@ def duffing():
 @pytest.fixture(scope="module")
 def duffing_branch(duffing):
     system, params, _ = duffing
-    return continuation(
+    return continue_orbits(
         system,
         params,
         "Omega",
         (1.0, 1.4),
-        ds=0.1,
-        ds_max=0.5,
-        samples_per_period=32,
-        transient_periods=5,
         options=SolverOptions(rtol=1e-9, atol=1e-11),
+        settings=hybrid.ContinuationOptions(ds=0.1, ds_max=0.5, samples_per_period=32, transient_periods=5),
     )
 
 
@@ -145,8 +142,12 @@ def duffing_branch(duffing):
 def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
     system, params, ref = problem()
     # From rest at the reference's section (t0 = 0): one Newton step on a linear map.
-    orbit = periodic_orbit(system, params, None, ref.mode0, t0=0.0, transient_periods=0)
-    assert orbit.converged and orbit.t0 == 0.0 and orbit.mode0 == ref.mode0
+    orbit = periodic_orbit(
+        system, params, None, ref.mode0, t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
+    assert orbit.converged
+    assert orbit.t0 == 0.0
+    assert orbit.mode0 == ref.mode0
     assert orbit.iterations >= 1
     assert rel(orbit.x0, ref.x0) <= 1e-8
     n = len(ref.state_names)
@@ -161,7 +162,8 @@ def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
     if problem is op.forced_linear_2dof_slave:
         # u is a slave variable: its multiplier is a structural zero.
         assert orbit.state_names == (*ref.state_names, "u")
-        assert list(kinds[n:]) == ["structural"] and orbit.multipliers[n] == 0
+        assert list(kinds[n:]) == ["structural"]
+        assert orbit.multipliers[n] == 0
     else:
         assert orbit.state_names == ref.state_names
 
@@ -171,7 +173,8 @@ def test_linear_orbit_and_multipliers_match_the_closed_form(problem):
 # ----------------------------------------------------------------------------
 def test_friction_monodromy_matches_finite_differences(friction_orbit):
     orbit = friction_orbit
-    assert orbit.converged and orbit.stability == "stable"
+    assert orbit.converged, orbit.message
+    assert orbit.stability == "stable"
     assert {"stick", "slip+", "slip-"} <= set(orbit.mode_sequence)
     assert fd_error(orbit, 1e-3) <= 1e-6
 
@@ -179,7 +182,8 @@ def test_friction_monodromy_matches_finite_differences(friction_orbit):
 def test_impact_monodromy_matches_finite_differences(impact, impact_orbit):
     _, params, ref = impact
     orbit = impact_orbit
-    assert orbit.converged and orbit.transitions_per_period == 1
+    assert orbit.converged, orbit.message
+    assert orbit.transitions_per_period == 1
     assert fd_error(orbit, 1e-3) <= 1e-6
     # The impact's saltation: det M = r^2 exp(-c T/m) exactly.
     det = float(np.linalg.det(orbit.monodromy))
@@ -214,8 +218,12 @@ def test_friction_orbit_at_the_reference_section(friction):
     system, params, ref = friction
     # Section t0 = 0 in mid-slip, from a perturbed guess, no transient.
     guess = ref.x0 + np.array([2e-3, -1e-3, 0.0, 0.0, 0.0])
-    orbit = periodic_orbit(system, params, guess, ref.mode0, t0=0.0, transient_periods=0)
-    assert orbit.converged and orbit.t0 == 0.0 and orbit.iterations >= 1
+    orbit = periodic_orbit(
+        system, params, guess, ref.mode0, t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
+    assert orbit.converged
+    assert orbit.t0 == 0.0
+    assert orbit.iterations >= 1
     assert np.max(np.abs(orbit.x0[:2] - ref.x0[:2])) <= 1e-8
     assert np.max(np.abs(orbit.monodromy - ref.monodromy)) <= 1e-7
     assert op.multiplier_distance(orbit.multipliers, ref.multipliers) <= 1e-7
@@ -226,8 +234,11 @@ def test_friction_orbit_at_the_reference_section(friction):
 def test_impact_orbit_at_the_reference_section(impact):
     system, params, ref = impact
     guess = ref.x0 + np.array([1e-3, 1e-3, 0.0, 0.0])
-    orbit = periodic_orbit(system, params, guess, ref.mode0, t0=0.0, transient_periods=0)
-    assert orbit.converged and orbit.iterations >= 1
+    orbit = periodic_orbit(
+        system, params, guess, ref.mode0, t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
+    )
+    assert orbit.converged
+    assert orbit.iterations >= 1
     assert np.max(np.abs(orbit.x0[:2] - ref.x0[:2])) <= 1e-8
     assert np.max(np.abs(orbit.monodromy - ref.monodromy)) <= 1e-7
     (t_impact,) = orbit.switch_times
@@ -250,11 +261,13 @@ def test_friction_energy_balance(friction, friction_orbit):
 # ----------------------------------------------------------------------------
 # 5. Continuation through folds and over the stick boundary
 # ----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_duffing_continuation_locates_both_folds(duffing, duffing_branch):
     _, _, ref = duffing
     br = duffing_branch
     assert br.status == "completed", br.message
-    assert br.p[0] == 1.0 and br.p[-1] >= 1.4
+    assert br.values[0] == 1.0
+    assert br.values[-1] >= 1.4
     folds = [s for s in br.special if s.kind == "fold"]
     assert len(folds) == 2
     # Upper fold first (the resonant branch turns back), then the lower one.
@@ -304,9 +317,15 @@ def test_duffing_branch_stability_agrees_with_the_reference(duffing, duffing_bra
         k = min(part, key=lambda i: abs(br.points[i].params["Omega"] - W))
         start = br.points[k]
         o = periodic_orbit(
-            system, {**params, "Omega": W}, start.x0, start.mode0, t0=start.t0, transient_periods=0
+            system,
+            {**params, "Omega": W},
+            start.x0,
+            start.mode0,
+            t0=start.t0,
+            settings=hybrid.ShootingOptions(transient_periods=0),
         )
-        assert o.converged and o.stability == expected
+        assert o.converged, o.message
+        assert o.stability == expected
         found.append(o)
     found.sort(key=lambda o: o.amplitude["x"])
     for o, r in zip(found, ref.orbits, strict=True):
@@ -315,11 +334,18 @@ def test_duffing_branch_stability_agrees_with_the_reference(duffing, duffing_bra
         assert op.multiplier_distance(o.multipliers, r.multipliers) <= 1e-7
 
 
+@pytest.mark.slow
 def test_friction_continuation_finds_the_stick_boundary(friction):
     system, params, _ = friction
     boundary = op.friction_stick_boundary(params)
     assert abs(boundary - 0.58970847211665) <= 1e-10
-    br = continuation(system, params, "Omega", (0.56, 0.62), ds=0.02, ds_max=0.05, samples_per_period=64)
+    br = continue_orbits(
+        system,
+        params,
+        "Omega",
+        (0.56, 0.62),
+        settings=hybrid.ContinuationOptions(ds=0.02, ds_max=0.05, samples_per_period=64),
+    )
     assert br.status == "completed", br.message
     lost = [s for s in br.special if s.kind == "mode-lost"]
     assert len(lost) == 1, f"special points: {br.special}"
@@ -338,7 +364,7 @@ def no_integration(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("an integration started before the input was checked")
 
-    monkeypatch.setattr(shooting_module, "run_compiled", forbidden)
+    monkeypatch.setattr(Run, "execute", forbidden)  # every run goes through the event loop
     monkeypatch.setattr(Sensitivity, "fundamental", forbidden)
 
 
@@ -355,16 +381,22 @@ def test_periodic_orbit_needs_a_period(no_integration):
     with pytest.raises(ValueError, match="period"):
         periodic_orbit(ball, {"g": 9.81, "e": 0.5}, {"h": 1.0, "v": 0.0}, "fly")
     with pytest.raises(ValueError, match="period"):
-        continuation(ball, {"g": 9.81, "e": 0.5}, "g", (9.0, 10.0), x0={"h": 1.0, "v": 0.0}, mode0="fly")
+        continue_orbits(ball, {"g": 9.81, "e": 0.5}, "g", (9.0, 10.0), x0={"h": 1.0, "v": 0.0}, mode0="fly")
 
 
 @pytest.mark.parametrize("tol", [0.0, -1e-9, math.nan])
 def test_tolerance_must_be_positive(duffing, no_integration, tol):
     system, params, _ = duffing
     with pytest.raises(ValueError, match="tol"):
-        periodic_orbit(system, params, tol=tol)
+        periodic_orbit(system, params, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)))
     with pytest.raises(ValueError, match="tol"):
-        continuation(system, params, "Omega", (1.0, 1.1), tol=tol)
+        continue_orbits(
+            system,
+            params,
+            "Omega",
+            (1.0, 1.1),
+            settings=hybrid.ContinuationOptions(newton=hybrid.NewtonOptions(tol=tol, max_iter=8)),
+        )
 
 
 @pytest.mark.parametrize(
@@ -379,4 +411,4 @@ def test_tolerance_must_be_positive(duffing, no_integration, tol):
 def test_continuation_rejects_bad_arguments(duffing, no_integration, kwargs, match):
     system, params, _ = duffing
     with pytest.raises(ValueError, match=match):
-        continuation(system, params, **kwargs)
+        continue_orbits(system, params, **kwargs)

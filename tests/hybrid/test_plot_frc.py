@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from hybrid._plot_frc import _runs
+from hybrid.plot.frc import _runs
 
 
 def test_runs_join_at_a_located_change_and_stop_at_a_bracketed_one():

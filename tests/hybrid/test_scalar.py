@@ -1,4 +1,4 @@
-"""Brent's bounded minimisation (hybrid._scalar) against scipy's fminbound and closed forms."""
+"""Brent's bounded minimisation (hybrid.core.scalar) against scipy's fminbound and closed forms."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from hybrid._scalar import bounded_minimum
+from hybrid.core.scalar import bounded_minimum
 
 CASES = [
     (lambda x: (x - 0.3) ** 2, 0.0, 1.0, 0.3),  # interior parabola
@@ -52,4 +52,5 @@ def test_raises_what_f_raises():
 def test_finite_on_noisy_plateau():
     rng = np.random.default_rng(1)
     x, fx = bounded_minimum(lambda x: 1.0 + 1e-16 * rng.standard_normal(), 0.0, 1.0, 1e-10)
-    assert 0.0 < x < 1.0 and math.isfinite(fx)
+    assert 0.0 < x < 1.0
+    assert math.isfinite(fx)

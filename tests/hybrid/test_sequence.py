@@ -1,4 +1,4 @@
-"""Newton in the switch times of a fixed sequence (hybrid._sequence) against independent references.
+"""Newton in the switch times of a fixed sequence (hybrid.orbits.sequence) against independent references.
 
 * its Jacobian against central finite differences of its own equations;
 * the forced Coulomb oscillator's non-stop orbit (a reset ``v = 0`` and a chained switch at each
@@ -13,11 +13,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import hybrid._shooting as shooting
+import hybrid
+import hybrid.orbits.newton as newton
 import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit
-from hybrid._sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
-from hybrid._shooting import Shooter
+from hybrid.integrators.affine import exact_flows
+from hybrid.orbits.sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
+from hybrid.orbits.shooter import Shooter
 from hybrid_models.coulomb_exact import den_hartog
 
 EXACT = SolverOptions(integrator="exact")
@@ -25,7 +27,12 @@ EXACT = SolverOptions(integrator="exact")
 
 def _neighbour_guess(system, preset, om1, om2):
     """The orbit at ``om1`` and the run of one period from it at ``om2`` (the section's phase kept)."""
-    o1 = periodic_orbit(system, system.preset(preset, Omega=om1), options=EXACT, tol=1e-12)
+    o1 = periodic_orbit(
+        system,
+        system.preset(preset, Omega=om1),
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
     assert o1.converged, o1.message
     sh = Shooter(system, system.preset(preset, Omega=om2), EXACT)
     t0 = o1.t0 * om1 / om2
@@ -37,8 +44,9 @@ def test_jacobian_equals_finite_differences():
     ab = hybrid_models.absorber()
     o1, sh, t0, tr = _neighbour_guess(ab, "standard", 0.8536, 0.8538)
     events = sequence_events(tr, sh.cs, t0, sh.period)
-    assert events is not None and len(events) == 4
-    modes = sh.cs.affine()
+    assert events is not None
+    assert len(events) == 4
+    modes = exact_flows(sh.cs)
     m0 = sh.cs.mode_id(o1.mode0)
     a0 = modes[m0]
     nd = a0.d.size
@@ -68,26 +76,33 @@ def test_coulomb_non_stop_orbit_equals_den_hartog():
     co = hybrid_models.coulomb()
     o1, sh, t0, tr = _neighbour_guess(co, "forced", 0.8, 0.83)
     events = sequence_events(tr, sh.cs, t0, sh.period)
-    assert events is not None and len(events) == 2  # two instants, each a stop and a break-away
+    assert events is not None
+    assert len(events) == 2  # two instants, each a stop and a break-away
     assert all(len(sw.steps) == 2 for sw in events)
-    assert any(ev.chained for ev in tr.events) and any(
+    assert any(ev.chained for ev in tr.events)
+    assert any(
         sh.cs.modes[sh.cs.mode_id(ev.source)].guards[0].reset_expr for ev in tr.events if not ev.chained
     )
     m0 = sh.cs.mode_id(o1.mode0)
-    yd = solve_sequence(sh.cs.affine(), m0, t0, sh.period, o1.x0, events)
+    yd = solve_sequence(exact_flows(sh.cs), m0, t0, sh.period, o1.x0, events)
     assert yd is not None
-    o2 = periodic_orbit(co, co.preset("forced", Omega=0.83), o1.x0, o1.mode0, t0=t0, transient_periods=0,
-                        options=EXACT, tol=1e-12)  # fmt: skip
+    o2 = periodic_orbit(co, co.preset("forced", Omega=0.83), o1.x0, o1.mode0, t0=t0, options=EXACT, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0))  # fmt: skip
     assert o2.converged
-    np.testing.assert_allclose(yd, o2.x0[sh.cs.affine()[m0].d], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(yd, o2.x0[exact_flows(sh.cs)[m0].d], rtol=0, atol=1e-12)
     p = co.preset("forced")
     assert o2.amplitude["x"] == pytest.approx(den_hartog(p["m"], p["k"], p["R"], p["F"], 0.83), rel=1e-11)
 
 
+@pytest.mark.slow
 def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
     ab = hybrid_models.absorber()
     base = ab.preset("standard")
-    start = periodic_orbit(ab, {**base, "Omega": 0.8542}, options=EXACT, tol=1e-12)
+    start = periodic_orbit(
+        ab,
+        {**base, "Omega": 0.8542},
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
     assert start.converged
     runs = {"n": 0}
     real_run = Shooter._run
@@ -102,8 +117,7 @@ def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
         out, counts, prev, om_prev = [], [], start, 0.8542
         for om in (0.8544, 0.8546, 0.8548, 0.855):
             runs["n"] = 0
-            o = periodic_orbit(ab, {**base, "Omega": om}, prev.x0, prev.mode0, t0=prev.t0 * om_prev / om,
-                               transient_periods=0, options=EXACT, tol=1e-10)  # fmt: skip
+            o = periodic_orbit(ab, {**base, "Omega": om}, prev.x0, prev.mode0, t0=prev.t0 * om_prev / om, options=EXACT, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-10), transient_periods=0))  # fmt: skip
             assert o.converged, o.message
             out.append(o)
             counts.append(runs["n"])
@@ -111,10 +125,11 @@ def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
         return out, counts
 
     fast, fast_runs = chain()
-    monkeypatch.setattr(shooting, "_sequence_candidate", lambda *a, **k: None)
+    monkeypatch.setattr(newton, "_sequence_candidate", lambda *a, **k: None)
     plain, plain_runs = chain()
     for a, b in zip(fast, plain, strict=True):
-        assert a.mode_sequence == b.mode_sequence and a.t0 == b.t0
+        assert a.mode_sequence == b.mode_sequence
+        assert a.t0 == b.t0
         assert np.max(np.abs(a.x0 - b.x0)) <= 1e-9 * np.max(np.abs(b.x0))
         dmu = np.max(np.abs(np.sort_complex(a.multipliers) - np.sort_complex(b.multipliers)))
         assert dmu <= 1e-9
@@ -128,7 +143,7 @@ def test_does_not_apply_without_switches_or_with_times_out_of_order():
     o1, sh, t0, tr = _neighbour_guess(ab, "standard", 0.8536, 0.8538)
     events = sequence_events(tr, sh.cs, t0, sh.period)
     m0 = sh.cs.mode_id(o1.mode0)
-    modes = sh.cs.affine()
+    modes = exact_flows(sh.cs)
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, []) is None
     swapped = [Switch(events[1].t, events[0].steps), Switch(events[0].t, events[1].steps), *events[2:]]
     assert solve_sequence(modes, m0, t0, sh.period, o1.x0, swapped) is None
@@ -180,27 +195,39 @@ def test_a_guess_outside_newtons_contraction_keeps_the_branch(tmp_path, monkeypa
     the period map reaches the stable one; the switch-time iteration, whose updates there do not
     contract, is given up instead of being followed to the unstable one."""
     s = _impact(tmp_path)
-    p = periodic_orbit(s, s.preset("standard"), options=EXACT, tol=1e-12)
-    assert p.converged and p.stable
+    p = periodic_orbit(
+        s,
+        s.preset("standard"),
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
+    assert p.converged
+    assert p.stable
     q = s.preset("standard", Omega=1.6923)
 
     def solve():
-        o = periodic_orbit(s, q, p.x0, p.mode0, t0=p.t0 * 1.4256 / 1.6923, transient_periods=0,
-                           options=EXACT, tol=1e-12)  # fmt: skip
+        o = periodic_orbit(s, q, p.x0, p.mode0, t0=p.t0 * 1.4256 / 1.6923, options=EXACT, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0))  # fmt: skip
         assert o.converged, o.message
         return o
 
     with_sequence = solve()
-    monkeypatch.setattr(shooting, "_sequence_candidate", lambda *a, **k: None)
+    monkeypatch.setattr(newton, "_sequence_candidate", lambda *a, **k: None)
     plain = solve()
-    assert plain.stable and with_sequence.stable
+    assert plain.stable
+    assert with_sequence.stable
     assert np.max(np.abs(with_sequence.x0 - plain.x0)) <= 1e-10 * np.max(np.abs(plain.x0))
 
 
 def test_a_reset_that_is_not_affine_is_not_linearised(tmp_path):
     s = _impact(tmp_path, reset="-e*v - 0.01*v*v")
-    p = periodic_orbit(s, s.preset("standard"), options=EXACT, tol=1e-12)
-    assert p.converged and len(p.switch_times) == 1
+    p = periodic_orbit(
+        s,
+        s.preset("standard"),
+        options=EXACT,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+    )
+    assert p.converged
+    assert len(p.switch_times) == 1
     sh = Shooter(s, s.preset("standard"), EXACT)
     tr = sh.run(p.x0, p.mode0, p.t0)
     assert sequence_events(tr, sh.cs, p.t0, sh.period) is None

@@ -18,10 +18,12 @@ import math
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid_models
-from hybrid import SolverOptions, continuation, periodic_orbit
-from hybrid._orbit import balance_scales
-from hybrid._shooting import Shooter
+from hybrid import SolverOptions, continue_orbits, periodic_orbit
+from hybrid.integrators.affine import exact_flows
+from hybrid.orbits.orbit import balance_scales
+from hybrid.orbits.shooter import Shooter
 
 EXACT = SolverOptions(integrator="exact")
 #: The absorber's first band edges (standard parameters), from the closed forms (test_continuation).
@@ -58,12 +60,23 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     back on the Pade path and a continuation over the band stalled."""
     ab = hybrid_models.absorber()
     opts, tol = (EXACT, 1e-12) if integrator == "exact" else (None, 1e-9)
-    ref = periodic_orbit(ab, _scaled(1.0, 0.85306), options=opts, tol=tol)
-    o = periodic_orbit(ab, _scaled(c, 0.85306), options=opts, tol=tol)
-    assert ref.converged and o.converged, o.message
+    ref = periodic_orbit(
+        ab,
+        _scaled(1.0, 0.85306),
+        options=opts,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)),
+    )
+    o = periodic_orbit(
+        ab,
+        _scaled(c, 0.85306),
+        options=opts,
+        settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)),
+    )
+    assert ref.converged, o.message
+    assert o.converged, o.message
     assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
     if integrator == "exact":
-        assert all(am.flow().eigen for am in Shooter(ab, o.params, EXACT).cs.affine())
+        assert all(am.flow().eigen for am in exact_flows(Shooter(ab, o.params, EXACT).cs))
     # displacements equal, velocities sqrt(c) times larger (exact: 1.6e-10 apart at c = 1e6, though
     # each orbit's residual is 5e-16); IDA to cond x rtol (about 4e-6 here)
     rel = 1e-9 if integrator == "exact" else 1e-4
@@ -73,12 +86,14 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     assert np.max(np.abs(mu - mu_ref)) <= (1e-10 if integrator == "exact" else 1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("c", [1e4, 1e6])
 def test_continuation_in_engineering_units_locates_the_band_onset(c):
     w = math.sqrt(c)  # forcing periods of 74 ms and 7.4 ms
-    br = continuation(hybrid_models.absorber(), _scaled(c, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
+    br = continue_orbits(hybrid_models.absorber(), _scaled(c, 0.8515), "Omega", (0.8515 * w, 0.8535 * w),
                       options=EXACT)  # fmt: skip
     assert br.status == "completed", br.message
     onset = [s for s in br.special if s.kind == "mode-gained"]
-    assert len(onset) == 1 and onset[0].status == "located"
+    assert len(onset) == 1
+    assert onset[0].status == "located"
     assert onset[0].parameter == pytest.approx(ONSET * w, rel=1e-10)

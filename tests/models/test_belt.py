@@ -11,16 +11,24 @@ v_b* = vs ln((Fs - Fk) / (vs (c + cf))).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+import hybrid
 import hybrid_models
-from hybrid import SolverOptions, simulate
-from hybrid._autobranch import hopf_branch, orbit_branch
-from hybrid._autonomous import autonomous_orbit
-from hybrid._equilibria import equilibrium, locate_hopf
-from hybrid._palc import PalcSettings
+from hybrid import (
+    NewtonOptions,
+    SolverOptions,
+    autonomous_orbit,
+    equilibrium,
+    hopf_branch,
+    locate_hopf,
+    orbit_branch,
+    simulate,
+)
+from hybrid.continuation.autonomous import AUTONOMOUS_CONTINUATION
 
 P = {"m": 2.0, "k": 3.0, "c": 0.0, "Fs": 1.2, "Fk": 0.5}
 
@@ -37,13 +45,20 @@ def test_coulomb_stick_slip_cycle_against_closed_form(integrator, rtol, err):
     for v_b in (0.13, 0.41, 0.97, 2.3):
         T, A = closed_form(v_b)
         for phase in ("auto", "anchor"):
-            o = autonomous_orbit(belt, {**P, "v_b": v_b}, phase=phase, options=opts, tol=1e-12)
+            o = autonomous_orbit(
+                belt,
+                {**P, "v_b": v_b},
+                phase=phase,
+                options=opts,
+                settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
+            )
             assert o.converged, o.message
             assert abs(o.period / T - 1) <= err, (v_b, phase)
             assert abs(o.half_peak_to_peak["x"] / A - 1) <= err, (v_b, phase)
             triv = o.multipliers[o.multiplier_kinds.index("trivial")]
             assert abs(triv - 1) <= 1e-8
-            assert o.stability == "stable" and o.mode_fractions.keys() == {"stick", "slip-"}
+            assert o.stability == "stable"
+            assert o.mode_fractions.keys() == {"stick", "slip-"}
 
 
 def mu(s, p):
@@ -57,7 +72,8 @@ def test_stribeck_steady_sliding_and_hopf_against_closed_form(cf):
     for v_b in (0.6, 1.7):
         q = {**p, "v_b": v_b}
         eq = equilibrium(belt, q, "slip-", {"x": 0.5, "w": -v_b})
-        assert eq.converged and eq.admissible
+        assert eq.converged, eq.message
+        assert eq.admissible
         assert abs(eq.state("x") - mu(v_b, q) / q["k"]) <= 1e-12
         assert abs(eq.state("w") + v_b) <= 1e-12
         slope = -(q["Fs"] - q["Fk"]) / q["vs"] * math.exp(-v_b / q["vs"]) + cf  # mu'(v_b)
@@ -69,31 +85,42 @@ def test_stribeck_steady_sliding_and_hopf_against_closed_form(cf):
             atol=1e-12,
         )
     v_star = p["vs"] * math.log((p["Fs"] - p["Fk"]) / (p["vs"] * (p["c"] + cf)))
-    v_h, eq = locate_hopf(belt, p, "slip-", "v_b", (0.6, 2.5), {"x": 0.5, "w": -0.6})
-    assert abs(v_h - v_star) <= 1e-10 * v_star
-    assert abs(abs(eq.eigenvalues[0].imag) - math.sqrt(p["k"] / p["m"])) <= 1e-10
+    hp = locate_hopf(belt, p, "slip-", "v_b", (0.6, 2.5), {"x": 0.5, "w": -0.6})
+    assert hp.kind == "hopf"
+    assert hp.status == "located"
+    assert abs(hp.parameter - v_star) <= 1e-10 * v_star
+    assert hp.interval[0] <= hp.parameter <= hp.interval[1]
+    assert hp.equilibrium.params["v_b"] == hp.parameter
+    assert abs(abs(hp.equilibrium.eigenvalues[0].imag) - math.sqrt(p["k"] / p["m"])) <= 1e-10
+    assert hp.frequency == abs(hp.equilibrium.eigenvalues[0].imag)
 
 
+@pytest.mark.slow
 def test_stribeck_hopf_branch_meets_the_stick_slip_branch_at_a_grazing():
     belt = hybrid_models.belt_stribeck()
     p = belt.preset("standard")
-    v_h, eq = locate_hopf(belt, p, "slip-", "v_b", (0.6, 2.5), {"x": 0.5, "w": -0.6})
-    settings = PalcSettings(ds=0.04, ds_max=0.15, tol=1e-11)  # orbits periodic to 1e-11
+    hp = locate_hopf(belt, p, "slip-", "v_b", (0.6, 2.5), {"x": 0.5, "w": -0.6})
+    v_h, eq = hp.parameter, hp.equilibrium
+    # orbits periodic to 1e-11
+    settings = replace(
+        AUTONOMOUS_CONTINUATION, ds=0.04, ds_max=0.15, newton=NewtonOptions(tol=1e-11, max_iter=8)
+    )
     opts = SolverOptions(rtol=1e-12, atol=1e-14)  # the trivial multiplier to 1e-8 (7e-8 at rtol 1e-10)
     smooth = hopf_branch(eq, "v_b", (0.3, 3.0), settings=settings, options=opts)
+    assert smooth.status == "stopped"
     assert smooth.reason == "grazing"
-    assert all(o.stability == "unstable" for o in smooth.orbits)  # subcritical (the cubic term of mu)
-    assert all(set(o.mode_sequence) == {"slip-"} for o in smooth.orbits)
-    assert all(o.params["v_b"] > v_h for o in smooth.orbits)
+    assert all(o.stability == "unstable" for o in smooth.points)  # subcritical (the cubic term of mu)
+    assert all(set(o.mode_sequence) == {"slip-"} for o in smooth.points)
+    assert all(o.params["v_b"] > v_h for o in smooth.points)
     # near the Hopf point the period tends to 2 pi / omega
-    assert abs(smooth.orbits[0].period - 2 * math.pi) <= 1e-4
+    assert abs(smooth.points[0].period - 2 * math.pi) <= 1e-4
     cycle = autonomous_orbit(belt, p, options=opts)
     stick_slip = orbit_branch(cycle, "v_b", (0.3, 3.0), settings=settings, options=opts)
     assert stick_slip.reason == "grazing"
-    assert all(o.stability == "stable" for o in stick_slip.orbits)
+    assert all(o.stability == "stable" for o in stick_slip.points)
     # both branches end where the cycle touches w = 0 (independent computations of one point)
     assert abs(smooth.values[-1] - stick_slip.values[-1]) <= 1e-5
-    for o in smooth.orbits + stick_slip.orbits:
+    for o in smooth.points + stick_slip.points:
         triv = o.multipliers[o.multiplier_kinds.index("trivial")]
         assert abs(triv - 1) <= 1e-8
 
@@ -102,7 +129,8 @@ def test_long_simulation_from_steady_sliding_settles_on_the_cycle():
     belt = hybrid_models.belt_stribeck()
     p = belt.preset("standard")  # v_b = 0.8 < v_b*: steady sliding is unstable
     cycle = autonomous_orbit(belt, p)
-    assert cycle.converged and cycle.stability == "stable"
+    assert cycle.converged, cycle.message
+    assert cycle.stability == "stable"
     x_star = mu(p["v_b"], p) / p["k"]
     tr = simulate(
         belt,
@@ -113,6 +141,7 @@ def test_long_simulation_from_steady_sliding_settles_on_the_cycle():
         options=SolverOptions(rtol=1e-10, atol=1e-12),
     )
     hits = [e for e in tr.events if e.guard == "breakaway-"]
-    assert len(hits) >= 10 and hits[0].t > 100.0  # it took the slow growth before the first stick
+    assert len(hits) >= 10
+    assert hits[0].t > 100.0  # it took the slow growth before the first stick
     assert abs((hits[-1].t - hits[-2].t) / cycle.period - 1) <= 1e-8
     assert np.max(np.abs(hits[-1].x_plus - cycle.x0)) <= 1e-8

@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import hybrid_models
-from hybrid._compiled import CompiledSystem
+from hybrid.model.compiled import CompiledSystem
 
 
 @pytest.fixture(params=["absorber", "isolator", "coulomb"])

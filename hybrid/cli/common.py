@@ -1,0 +1,257 @@
+"""Helpers shared by the subcommands of ``hybrid``: arguments, parameters, output folders, messages.
+
+Bad input is reported in one line on stderr with exit code 2, before any integration
+(:class:`UsageError`, raised here and caught by :func:`hybrid.cli.main.main`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..core.errors import InputError
+from ..core.options import INTEGRATORS, SolverOptions
+from ..integrators.registry import integrator
+from ..model.plot_hints import plot_hints
+from ..model.registry import is_model_file
+from ..model.system import HybridSystem
+from ..orbits.orbit import ORBIT_OPTIONS
+
+#: Largest `--samples-per-period` (a period of `orbit` is held in memory; `simulate` keeps 4 of them).
+MAX_SAMPLES_PER_PERIOD = 100_000
+
+
+#: Help of `--out` (see `default_output_dir`).
+OUT_HELP = "output folder (default out/NAME: the built-in model's name, or the stem of the model file)"
+
+
+class UsageError(InputError):
+    """Bad command-line input."""
+
+
+def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items or ():
+        if "=" not in item:
+            raise UsageError(f"`{option}` takes NAME=VALUE, got {item!r}")
+        key, _, value = item.partition("=")
+        key = key.strip()
+        try:
+            out[key] = float(value)
+        except ValueError:
+            raise UsageError(f"`{option} {item}`: {value!r} is not a number") from None
+    return out
+
+
+def choose_preset(system: HybridSystem, preset: str | None) -> str | None:
+    """The preset asked for, else ``standard`` if the model has one, else its first (None if none)."""
+    if preset is not None:
+        return preset
+    if "standard" in system.presets:
+        return "standard"
+    return next(iter(system.presets), None)
+
+
+def parameters(system: HybridSystem, args) -> tuple[str | None, dict[str, float]]:
+    preset = choose_preset(system, args.preset)
+    values = pairs(args.set, "--set")
+    omega = getattr(args, "omega", None)  # `frc` has no --omega
+    if omega is not None:
+        if "Omega" not in system.parameter_names:
+            raise UsageError(f"model `{system.name}` has no parameter `Omega` for --omega")
+        values["Omega"] = omega
+    return preset, system.parameter_values(values, preset=preset)
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def int_at_least(lo: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {lo}, got {text}")
+        return value
+
+    return parse
+
+
+positive_int = int_at_least(1)
+
+
+nonnegative_int = int_at_least(0)
+
+
+def add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
+    p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
+    p.add_argument(
+        "--preset",
+        help="named parameter set of the model (default: `standard` if it has one, else its first)",
+    )
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter (repeatable)")
+    if omega:
+        p.add_argument(
+            "--omega", type=positive_float, help="excitation frequency [rad/s] (sets parameter Omega)"
+        )
+
+
+def add_tolerances(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--rtol",
+        type=positive_float,
+        default=ORBIT_OPTIONS.rtol,
+        help=f"relative tolerance (default {ORBIT_OPTIONS.rtol:g})",
+    )
+    p.add_argument(
+        "--atol",
+        type=positive_float,
+        default=ORBIT_OPTIONS.atol,
+        help=f"absolute tolerance (default {ORBIT_OPTIONS.atol:g})",
+    )
+
+
+def add_budget(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--max-time",
+        type=positive_float,
+        default=SolverOptions.max_wall_time,
+        metavar="SECONDS",
+        help=f"wall-clock limit of the whole command (default {SolverOptions.max_wall_time:g} s)",
+    )
+    add_work_limits(p)
+
+
+def add_work_limits(p: argparse.ArgumentParser) -> None:
+    """``--max-steps`` (the work of each integration) and ``--integrator``."""
+    p.add_argument(
+        "--max-steps",
+        type=positive_int,
+        default=SolverOptions.max_steps,
+        metavar="N",
+        help="work limit of each integration, in IDA residual evaluations "
+        f"(default {SolverOptions.max_steps:g})",
+    )
+    p.add_argument(
+        "--integrator",
+        choices=INTEGRATORS,
+        default="ida",
+        help="ida (default, any model) or exact (matrix exponentials: models affine in the state, "
+        "forced at one frequency)",
+    )
+
+
+def check_integrator(system: HybridSystem, params: dict[str, float], options: SolverOptions) -> None:
+    """Refuse, before any run, a model the chosen integrator cannot take (NotAffineError, exit 2)."""
+    integrator(options.integrator).check_model(system, params)
+
+
+def budget_options(args) -> dict:
+    """The :class:`SolverOptions` fields set by the run options (budget and integrator)."""
+    return {"max_steps": args.max_steps, "max_wall_time": args.max_time, "integrator": args.integrator}
+
+
+def info(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+def announce(system: HybridSystem, preset: str | None, params: dict[str, float]) -> None:
+    if preset:
+        info(
+            f"model `{system.name}`, preset `{preset}`: " + ", ".join(f"{k}={v:g}" for k, v in params.items())
+        )
+
+
+def default_output_dir(system: HybridSystem, model: str) -> Path:
+    """The default output folder of MODEL: ``out/<file stem>`` for a model file, else ``out/<name>``.
+
+    A model given as a file is named after the file, not after its ``[model] name``: two files
+    declaring the same name keep their results apart. The folder must lie directly inside ``out/``,
+    so that neither a file name nor a model name can direct output elsewhere.
+
+    Parameters
+    ----------
+    system : HybridSystem
+        The resolved model.
+    model : str
+        MODEL as given on the command line (a built-in name or a path).
+
+    Returns
+    -------
+    Path
+        ``out/<folder>``, relative to the working directory.
+
+    Raises
+    ------
+    UsageError
+        The folder would not lie directly inside ``out/``.
+    """
+    folder = Path(model).stem if is_model_file(model) else system.name
+    out = Path("out") / folder
+    if not folder.isprintable() or folder in ("", ".", "..") or out.resolve().parent != Path("out").resolve():
+        raise UsageError(
+            f"{folder!r} does not name a folder inside out/: rename the model file or give --out"
+        )
+    return out
+
+
+def output_dir(system: HybridSystem, args) -> Path:
+    """The output folder, created and checked writable before any computation.
+
+    ``--out`` if given, else :func:`default_output_dir` (``out/<file stem>`` for a model file,
+    ``out/<model name>`` for a built-in model), checked to lie inside ``out/``, so a model
+    file cannot direct output elsewhere.
+    """
+    if args.out is None:
+        out = default_output_dir(system, args.model)
+    else:
+        if not args.out.strip():
+            raise UsageError("`--out` needs a folder path, got an empty string")
+        out = Path(args.out)
+    return writable_folder(out)
+
+
+def writable_folder(out: Path) -> Path:
+    """``out`` (the folder of ``--out``), created and checked writable before any computation.
+
+    Raises
+    ------
+    UsageError
+        It exists and is not a folder, or cannot be created or written.
+    """
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"`--out {out}`: exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".hybrid-write-test-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise UsageError(f"output folder {str(out)!r} cannot be written: {exc.strerror or exc}") from None
+    return out
+
+
+def unit(system: HybridSystem, name: str) -> str:
+    units = {v.name: v.unit for v in system.variables}
+    return units.get(name) or plot_hints(system)["units"].get(name, "")
+
+
+def samples_per_period(args) -> int:
+    if args.samples_per_period > MAX_SAMPLES_PER_PERIOD:
+        raise UsageError(
+            f"`--samples-per-period` is at most {MAX_SAMPLES_PER_PERIOD}, got {args.samples_per_period}"
+        )
+    return args.samples_per_period

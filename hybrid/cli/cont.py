@@ -1,0 +1,271 @@
+"""``hybrid cont MODEL --param NAME --range A B``: equilibria and periodic orbits of an autonomous
+model continued in one parameter.
+
+What it computes, in order:
+
+1. the equilibria of every mode over the range (those that exist and are admissible somewhere),
+   their stability, and every loss of stability located (a Hopf point for a complex pair);
+2. from each Hopf point, the branch of periodic orbits born there, followed until it leaves the
+   range or meets a switch (a grazing);
+3. the periodic orbit at the preset's value of the parameter (from a transient), continued both
+   ways (e.g. the stick-slip cycle).
+
+It writes ``cont.csv`` (one row per point), ``cont.json`` (the special points, as
+:class:`hybrid.SpecialPoint` fields, and each branch's end: status, reason, range) and ``cont.png`` (amplitude and period against the parameter; stable solid, unstable dashed,
+the losses of stability marked).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branch, hopf_branch, orbit_branch
+from ..core.budget import time_limit
+from ..core.options import SolverOptions
+from ..core.progress import ProgressBar
+from ..engine.io import to_json
+from ..model.registry import resolve_model
+from ..orbits.autonomous import autonomous_orbit, time_scale
+from .common import (
+    UsageError,
+    add_budget,
+    add_model_args,
+    announce,
+    budget_options,
+    output_dir,
+    parameters,
+    positive_float,
+)
+
+__all__ = ["register", "run"]
+
+#: Grid of the equilibrium branches (points over the range).
+EQUILIBRIUM_POINTS = 41
+
+
+def register(subparsers) -> None:
+    """Add ``cont`` to the subparsers of ``hybrid``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+    """
+    p = subparsers.add_parser(
+        "cont", help="autonomous model: equilibria, Hopf points and periodic orbits continued in a parameter"
+    )
+    add_model_args(p, omega=False)
+    p.add_argument("--param", required=True, metavar="NAME", help="the parameter to continue")
+    p.add_argument("--range", nargs=2, type=float, required=True, metavar=("A", "B"), help="its range")
+    p.add_argument(
+        "--coordinate",
+        default=None,
+        metavar="NAME",
+        help="variable or output whose amplitude "
+        "(half peak-to-peak) is plotted (default: the first displacement of the model's [plot])",
+    )
+    p.add_argument("--rtol", type=positive_float, default=1e-10, help="relative tolerance (default 1e-10)")
+    p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+    p.add_argument(
+        "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
+    )
+    add_budget(p)
+    p.set_defaults(handler=run)
+
+
+def _special(sp, branch) -> dict:
+    """A special point as JSON (an equilibrium's Hopf point with its frequency [rad/s])."""
+    out = {
+        "kind": sp.kind,
+        "value": sp.parameter,
+        "status": sp.status,
+        "accuracy": sp.accuracy,
+        "interval": list(sp.interval),
+        "description": sp.description,
+    }
+    if branch.kind == "equilibria":
+        out["frequency"] = abs(float(branch.points[sp.index].eigenvalues[0].imag))
+    return out
+
+
+def _rows_of_orbits(kind: str, k: int, branch, coord: str) -> list[dict]:
+    rows = []
+    for o in branch.points:
+        triv = [m for m, kd in zip(o.multipliers, o.multiplier_kinds, strict=True) if kd == "trivial"]
+        fl = np.abs(o.floquet_multipliers)
+        rows.append(
+            {
+                "kind": kind,
+                "branch": k,
+                "parameter": o.params[branch.parameter],
+                "amplitude": o.half_peak_to_peak[coord],
+                "period": o.period,
+                "stability": o.stability,
+                "max_abs_multiplier": float(fl.max()) if fl.size else 0.0,
+                "trivial_multiplier_error": float(abs(triv[0] - 1.0)) if triv else math.nan,
+                "modes": "/".join(sorted(o.mode_fractions)),
+            }
+        )
+    return rows
+
+
+def run(args) -> int:
+    """Handler of ``hybrid cont``."""
+    system = resolve_model(args.model)
+    if system.period is not None:
+        raise UsageError(
+            f"model `{system.name}` is periodically forced: use `hybrid frc --parameter {args.param}`"
+        )
+    if args.param not in system.parameter_names:
+        raise UsageError(
+            f"model `{system.name}` has no parameter `{args.param}`; parameters: "
+            f"{', '.join(system.parameter_names)}"
+        )
+    lo, hi = sorted(args.range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise UsageError(f"--range must be two different finite numbers, got {args.range}")
+    preset, params = parameters(system, args)
+    system.parameter_values({**params, args.param: lo})  # a range outside the domain -> ValueError
+    system.parameter_values({**params, args.param: hi})
+    coord = args.coordinate or (list(system.plot.get("displacements", ())) or list(system.variable_names))[0]
+    if coord not in system.variable_names and coord not in system.outputs:
+        raise UsageError(f"--coordinate `{coord}` is neither a variable nor an output of `{system.name}`")
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    time_scale(system, params, None)  # a model without a period guess is refused here
+    out = output_dir(system, args)
+    announce(system, preset, params)
+    bar = ProgressBar(f"cont {system.name}", enabled=args.progress)
+    settings = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
+    t0 = time.perf_counter()
+    rows: list[dict] = []
+    summary: dict = {
+        "model": system.name,
+        "preset": preset,
+        "parameters": params,
+        "parameter": args.param,
+        "range": [lo, hi],
+        "coordinate": coord,
+        "equilibria": [],
+        "orbit_branches": [],
+    }
+    eq_branches = []
+    with time_limit(args.max_time):
+        grid = np.linspace(lo, hi, EQUILIBRIUM_POINTS)
+        for j, mode in enumerate(m.name for m in system.modes):
+            bar(0.3 * j / len(system.modes))
+            try:
+                eb = equilibrium_branch(system, params, mode, args.param, grid)
+            except (ValueError, RuntimeError):
+                continue
+            if not any(e.converged and e.admissible for e in eb.points):
+                continue
+            eq_branches.append(eb)
+            for e in eb.points:
+                if e.converged and e.admissible:
+                    rows.append(
+                        {
+                            "kind": "equilibrium",
+                            "branch": mode,
+                            "parameter": e.params[args.param],
+                            "amplitude": 0.0,
+                            "period": math.nan,
+                            "stability": e.stability,
+                            "max_abs_multiplier": math.nan,
+                            "trivial_multiplier_error": math.nan,
+                            "modes": mode,
+                        }
+                    )
+            summary["equilibria"].append({"mode": mode, "special": [_special(sp, eb) for sp in eb.special]})
+        obranches = []
+        for eb in eq_branches:
+            for sp in eb.special:
+                if sp.kind == "hopf":
+                    eq = eb.points[sp.index]
+                    obranches.append(
+                        ("hopf", hopf_branch(eq, args.param, (lo, hi), options=options, settings=settings))
+                    )
+        bar(0.5)
+        orbit = autonomous_orbit(system, params, options=options)
+        summary["orbit_at_preset"] = {"converged": orbit.converged, "message": orbit.message}
+        if orbit.converged and lo <= params[args.param] <= hi:
+            for k, direction in enumerate((1, -1)):
+                bar(0.6 + 0.2 * k)
+                obranches.append(
+                    (
+                        "orbit",
+                        orbit_branch(
+                            orbit,
+                            args.param,
+                            (lo, hi),
+                            direction=direction,
+                            options=options,
+                            settings=settings,
+                        ),
+                    )
+                )
+    bar(1.0)
+    for k, (kind, br) in enumerate(obranches):
+        rows += _rows_of_orbits(kind, k, br, coord)
+        summary["orbit_branches"].append(
+            {
+                "start": kind,
+                "points": len(br.points),
+                "status": br.status,
+                "reason": br.reason,
+                "message": br.message,
+                "special": [_special(sp, br) for sp in br.special],
+                "ends": [float(br.values[0]), float(br.values[-1])] if br.points else [],
+            }
+        )
+    wall = time.perf_counter() - t0
+    summary["wall_time_s"] = wall
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "cont.csv", out / "cont.json"]
+    with open(out / "cont.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["kind"])
+        w.writeheader()
+        w.writerows(rows)
+    if not args.no_plot:
+        from ..plot.cont import plot_cont
+
+        files.append(plot_cont(system, args.param, coord, eq_branches, obranches, out / "cont.png"))
+    summary["files"] = [str(f) for f in files]
+    (out / "cont.json").write_text(to_json(summary) + "\n")
+    if args.json:
+        print(to_json(summary))
+    else:
+        print(_text(summary))
+    for f in files:
+        print(f"wrote {f}", file=sys.stderr)
+    print(f"continuation in {wall:.1f} s", file=sys.stderr)
+    return 0
+
+
+def _text(s: dict) -> str:
+    lines = [f"{s['model']}: continuation in {s['parameter']} over [{s['range'][0]:g}, {s['range'][1]:g}]"]
+    for e in s["equilibria"]:
+        ch = (
+            "; ".join(
+                f"{c['kind']} at {s['parameter']} = {c['value']:.12g}"
+                + (f" (frequency {c['frequency']:.9g} rad/s)" if c["kind"] == "hopf" else "")
+                for c in e["special"]
+            )
+            or "no change of stability"
+        )
+        lines.append(f"  equilibria of mode `{e['mode']}`: {ch}")
+    for b in s["orbit_branches"]:
+        ends = " to ".join(f"{v:.9g}" for v in b["ends"])
+        lines.append(
+            f"  periodic orbits from the {b['start']}: {b['points']} points, {s['parameter']} from {ends}, "
+            f"ended: {b['status']}" + (f" ({b['reason']})" if b["reason"] else "")
+        )
+    return "\n".join(lines)

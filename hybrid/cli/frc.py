@@ -1,0 +1,315 @@
+"""``hybrid frc``: the frequency-response curve (periodic orbits continued in the forcing
+frequency), written row by row as it is computed, with its special points, overlays and figure."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib
+import os
+import threading
+import time
+from collections.abc import Callable
+from importlib.metadata import entry_points
+
+import numpy as np
+
+from ..continuation.branch import forcing_parameter, orbit_row
+from ..continuation.frc import default_range, frequency_response
+from ..core.budget import time_limit
+from ..core.options import SolverOptions
+from ..core.progress import ProgressBar
+from ..core.status import BranchStatus, ResponseStatus
+from ..engine.io import csv_cell, to_json, write_rows_csv
+from ..model.plot_hints import plot_hints
+from ..model.registry import resolve_model
+from ..model.system import HybridSystem
+from .common import (
+    OUT_HELP,
+    UsageError,
+    add_budget,
+    add_model_args,
+    add_tolerances,
+    announce,
+    budget_options,
+    check_integrator,
+    info,
+    output_dir,
+    parameters,
+    positive_float,
+    positive_int,
+)
+
+FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
+
+
+def register(sub) -> None:
+    """Add this subcommand to the subparsers of ``hybrid``."""
+    p = sub.add_parser(
+        "frc", help="frequency-response curve: periodic orbits continued in the forcing frequency"
+    )
+    add_model_args(p, omega=False)
+    p.add_argument(
+        "--parameter",
+        default=None,
+        metavar="NAME",
+        help="parameter to continue in (default: the forcing frequency, the parameter the period depends on)",
+    )
+    p.add_argument(
+        "--omega-range",
+        nargs=2,
+        type=positive_float,
+        metavar=("A", "B"),
+        help="range of the continued parameter (default, for the forcing frequency: 0.8 x lowest to "
+        "1.2 x highest natural frequency of the initial mode linearised at rest)",
+    )
+    add_tolerances(p)
+    p.add_argument("--out", default=None, help=OUT_HELP)
+    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="pieces of the range (one per resonance) computed at once, in forked processes (default: "
+        "the number of CPUs; 1: one after the other; the result is the same)",
+    )
+    p.add_argument(
+        "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
+    )
+    add_budget(p)
+    p.set_defaults(handler=cmd_frc)
+
+
+def frc_overlays(system: HybridSystem, params: dict[str, float], omega: np.ndarray) -> dict:
+    """Overlay curves of a model (``hybrid.frc_overlays`` entry point named like it), or ``{}``.
+
+    A failing overlay function is reported on stderr and drawn as nothing.
+    """
+    eps = {ep.name: ep for ep in entry_points(group=FRC_OVERLAY_GROUP)}
+    if system.name not in eps:
+        return {}
+    try:
+        curves = eps[system.name].load()(dict(params), omega)
+        return {
+            str(c): {
+                str(n): np.broadcast_to(np.asarray(v, dtype=float), omega.shape) for n, v in coords.items()
+            }
+            for c, coords in curves.items()
+        }
+    except Exception as exc:  # model code: report, do not stop the run
+        info(f"hybrid: warning: overlays of `{system.name}` failed ({type(exc).__name__}: {exc}); none drawn")
+        return {}
+
+
+def frc_text(fr, preset: str | None) -> str:
+    """A readable summary of a frequency response (stdout of ``hybrid frc`` without ``--json``)."""
+    system = fr.system
+    par = fr.parameter
+    lo, hi = fr.p_range
+    lines = [
+        f"{system.name}"
+        + (f", preset `{preset}`" if preset else "")
+        + f": {par} from {lo:.6g} to {hi:.6g} rad/s",
+        "  natural frequencies of the linearised initial mode: "
+        + (", ".join(f"{w:.6g}" for w in fr.resonances) or "none")
+        + " rad/s",
+    ]
+    coords = list(plot_hints(system)["displacements"])
+    for k, b in enumerate(fr.branches):
+        if not b.points:
+            lines.append(f"  branch {k}: no point ({b.message})")
+            continue
+        p = b.values
+        stab = {s: b.stability.count(s) for s in dict.fromkeys(b.stability)}
+        lines.append(
+            f"  branch {k}: {len(p)} orbits, {par} {p[0]:.6g} -> {p[-1]:.6g}, "
+            + ", ".join(f"{n} {s}" for s, n in stab.items())
+            + (f"; {b.status}: {b.message}" if b.status != BranchStatus.COMPLETED else "")
+        )
+        for name in coords:
+            a = b.amplitude(name)
+            i = int(np.argmax(a))
+            lines.append(f"    max |{name}| = {a[i]:.6g} at {par} = {p[i]:.6g}")
+    for row in fr.special_rows():
+        where = (
+            f"{par} = {row[par]:.10g} (located, +-{row['accuracy']:.2g})"
+            if row["status"] == "located"
+            else f"{par} in [{row['interval_lo']:.10g}, {row['interval_hi']:.10g}] (bracketed)"
+        )
+        lines.append(
+            f"  {row['kind']} at {where} (branch {row['branch']}, {row['stability']}): " + row["description"]
+        )
+    for a, b in fr.gaps:
+        lines.append(f"  GAP: no periodic orbit computed for {par} in ({a:.8g}, {b:.8g})")
+    return "\n".join(lines)
+
+
+def import_in_background(module: str) -> Callable[[], None]:
+    """A function that starts importing ``module`` in a daemon thread (a later import waits for it),
+    at the lowest scheduling priority where the platform sets one per thread (Linux): it then
+    takes a core the workers leave idle (the piece that finishes first) rather than slow them."""
+
+    def load() -> None:
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)  # this thread only (Linux)
+        except (AttributeError, OSError):
+            pass
+        importlib.import_module(module)
+
+    def start() -> None:
+        threading.Thread(target=load, daemon=True).start()
+
+    return start
+
+
+def cmd_frc(args) -> int:
+    system = resolve_model(args.model)
+    if system.period is None:
+        raise UsageError(
+            f"model `{system.name}` declares no forcing `period`: a frequency response needs one; an "
+            f"autonomous model's periodic orbits and equilibria are continued with "
+            f"`hybrid cont {system.name} --param NAME --range A B`"
+        )
+    forcing = forcing_parameter(system)
+    par = args.parameter if args.parameter is not None else forcing
+    if par not in system.parameter_names:
+        raise UsageError(
+            f"model `{system.name}` has no parameter `{par}` to continue in; "
+            f"parameters: {', '.join(system.parameter_names)}"
+        )
+    preset, params = parameters(system, args)
+    if args.omega_range is not None:
+        lo, hi = args.omega_range
+        if not lo < hi:
+            raise UsageError(f"`--omega-range A B` needs A < B, got {lo:g} {hi:g}")
+    elif par == forcing:
+        lo, hi = default_range(system, params)
+    else:
+        raise UsageError(f"give the range of `{par}` (--omega-range A B)")
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    check_integrator(system, params, options)
+    out = output_dir(system, args)
+    announce(system, preset, params)
+    info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
+    out.mkdir(parents=True, exist_ok=True)
+    # Every orbit is written to frc.csv as it is accepted: an interrupt keeps what was done.
+    csv_path = out / "frc.csv"
+    written = {"rows": 0}
+    fh = csv_path.open("w", newline="")
+    writer = csv.writer(fh)
+    columns: list[str] = []
+
+    def on_point(k: int, orbit) -> None:
+        row = {"branch": k, **orbit_row(par, orbit)}
+        if not columns:
+            columns.extend(row)
+            writer.writerow(columns)
+        writer.writerow([csv_cell(row.get(c)) for c in columns])
+        fh.flush()
+        written["rows"] += 1
+
+    bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
+    t0 = time.perf_counter()
+    try:
+        with time_limit(args.max_time):
+            fr = frequency_response(
+                system,
+                params,
+                (lo, hi),
+                parameter=par,
+                options=options,
+                progress=bar,
+                on_point=on_point,
+                workers=args.workers or os.cpu_count() or 1,
+                # matplotlib is imported (0.4 s) while the workers compute
+                while_computing=None if args.no_plot else import_in_background("hybrid.plot.frc"),
+            )
+    except KeyboardInterrupt:
+        info(
+            f"hybrid: interrupted after {time.perf_counter() - t0:.1f} s: "
+            f"{written['rows']} periodic orbits kept in {csv_path}"
+        )
+        return 130
+    finally:
+        fh.close()
+    bar(1.0)
+    wall = time.perf_counter() - t0
+
+    from ..plot.frc import zoom_windows
+
+    files = [csv_path]
+    special = fr.special_rows()
+    files.append(
+        write_rows_csv(
+            special,
+            out / "frc_special.csv",
+            None
+            if special
+            else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
+        )
+    )
+    overlays, grid = {}, None
+    if par == forcing:  # the models' overlays are curves over the forcing frequency
+        zooms = zoom_windows(fr)
+        grid = np.unique(
+            np.concatenate([np.linspace(lo, hi, 2001)] + [np.linspace(a, b, 801) for a, b, _ in zooms])
+        )
+        overlays = frc_overlays(system, params, grid)
+        ov_rows = [{par: float(w)} for w in grid]
+        for curve, coords in overlays.items():
+            for name, values in coords.items():
+                for row, v in zip(ov_rows, values, strict=True):
+                    row[f"{curve}: {name}"] = float(v)
+        files.append(write_rows_csv(ov_rows, out / "frc_overlays.csv"))
+    if not args.no_plot:
+        from ..plot.frc import plot_frc
+
+        files.append(plot_frc(fr, out / "frc.png", overlays=overlays, grid=grid))
+    summary = {
+        "model": system.name,
+        "preset": preset,
+        "parameter": par,
+        "parameters": {k: v for k, v in params.items() if k != par},
+        "omega_range": [lo, hi],
+        "natural_frequencies": [float(w) for w in fr.resonances],
+        "branches": [
+            {
+                "points": len(b.points),
+                "omega_start": float(b.values[0]) if b.points else None,
+                "omega_end": float(b.values[-1]) if b.points else None,
+                "status": b.status,
+                "reason": b.reason,
+                "message": b.message,
+            }
+            for b in fr.branches
+        ],
+        "special": special,
+        "gaps": [list(g) for g in fr.gaps],
+        "complete": fr.status == ResponseStatus.COMPLETE,
+        "overlays": list(overlays),
+        "wall_time_s": wall,
+        "files": [str(f) for f in files] + [str(out / "frc.json")],
+    }
+    (out / "frc.json").write_text(to_json(summary) + "\n")
+    files.append(out / "frc.json")
+    print(to_json(summary) if args.json else frc_text(fr, preset))
+    for f in files:
+        info(f"wrote {f}")
+    n = sum(len(b.points) for b in fr.branches)
+    info(f"{n} periodic orbits in {wall:.1f} s")
+    family = sum(1 for b in fr.branches for o in b.points if o.family)
+    if family and system.parsed.gauge is None:
+        info(
+            f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
+            "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "
+            "from a transient), which may be off-centre, e.g. touching a guard on one side only (slip setting "
+            "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
+            "element's offset) picks the member (README, docs/models.md)"
+        )
+    if fr.status != ResponseStatus.COMPLETE:
+        for m in fr.messages():
+            info(f"hybrid: {m}")
+        return 1
+    return 0

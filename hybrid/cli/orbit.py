@@ -1,0 +1,159 @@
+"""``hybrid orbit``: the periodic orbit at one parameter set, with its Floquet multipliers."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..continuation.periodic import periodic_orbit
+from ..core.budget import time_limit
+from ..core.options import ShootingOptions, SolverOptions
+from ..engine.io import to_json, write_trajectory_csv
+from ..engine.simulate import initial_state
+from ..model.registry import resolve_model
+from ..orbits.orbit import PeriodicOrbit
+from .common import (
+    OUT_HELP,
+    UsageError,
+    add_budget,
+    add_model_args,
+    add_tolerances,
+    announce,
+    budget_options,
+    check_integrator,
+    info,
+    nonnegative_int,
+    output_dir,
+    pairs,
+    parameters,
+    positive_int,
+    samples_per_period,
+    unit,
+)
+
+
+def register(sub) -> None:
+    """Add this subcommand to the subparsers of ``hybrid``."""
+    p = sub.add_parser("orbit", help="periodic orbit at one forcing frequency, with its Floquet multipliers")
+    add_model_args(p)
+    p.add_argument(
+        "--x0", action="append", metavar="NAME=VALUE", help="initial guess of a variable (default 0)"
+    )
+    p.add_argument("--mode0", help="mode of the guess (default: the model's initial mode)")
+    p.add_argument(
+        "--transient",
+        type=nonnegative_int,
+        default=10,
+        metavar="N",
+        help="forcing periods simulated from the guess before Newton's method (default 10); if Newton "
+        "fails from there, the orbit is sought by continuation in the forcing frequency (0: no fallback)",
+    )
+    add_tolerances(p)
+    p.add_argument(
+        "--samples-per-period",
+        type=positive_int,
+        default=512,
+        help="samples of the period (default 512, at most 100000)",
+    )
+    p.add_argument("--out", default=None, help=OUT_HELP)
+    p.add_argument("--json", action="store_true", help="print the orbit as JSON on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+    add_budget(p)
+    p.set_defaults(handler=cmd_orbit)
+
+
+def orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
+    """A readable summary of a periodic orbit (the stdout of ``hybrid orbit`` without ``--json``)."""
+    system = orbit.system
+    omega = orbit.params.get("Omega")
+    head = f"{system.name}" + (f", preset `{preset}`" if preset else "")
+    head += (f", Omega = {omega:g} rad/s" if omega is not None else "") + f": period T = {orbit.period:.9g} s"
+    head += " (autonomous: the period is an unknown, found with the orbit)" if system.period is None else ""
+    lines = [head]
+    if not orbit.converged:
+        lines.append(f"  NO periodic orbit: {orbit.message}")
+        return "\n".join(lines)
+    lines.append(
+        f"  converged: residual {orbit.residual:.2g} after {orbit.iterations} Newton iterations, "
+        f"cond(I - M) = {orbit.condition:.3g}"
+    )
+    route = {"newton": "Newton's method from the guess (after its transient)"}.get(orbit.route, orbit.route)
+    lines.append(f"  found by: {route}")
+    fl = np.abs(orbit.floquet_multipliers)
+    verdict = {
+        "stable": "stable (all Floquet multipliers inside the unit circle)",
+        "unstable": "UNSTABLE (a Floquet multiplier outside the unit circle)",
+        "neutral": "neutral (marginally stable: a multiplier on the unit circle)",
+    }.get(orbit.stability, orbit.stability)
+    lines.append(f"  stability: {verdict}" + (f", max |mu| = {fl.max():.9g}" if fl.size else ""))
+    seq = " -> ".join(orbit.mode_sequence)
+    lines.append(
+        f"  {orbit.transitions_per_period} switches per period; modes from t0 = {orbit.t0:.6g} s: {seq}"
+    )
+    if orbit.mode_fractions:
+        fr = ", ".join(f"{m} {f:.4f}" for m, f in orbit.mode_fractions.items())
+        lines.append(f"  fraction of the period per mode: {fr}")
+    lines.append("  multipliers (Re, Im, |mu|, kind):")
+    for mu, kind in zip(orbit.multipliers, orbit.multiplier_kinds, strict=True):
+        lines.append(f"    {mu.real:+.9f} {mu.imag:+.9f}i   |mu| = {abs(mu):.9f}   {kind}")
+    lines.append("  amplitudes (max |x| and half peak-to-peak over the period):")
+    width = max(len(n) for n in orbit.amplitude)
+    for name, amp in orbit.amplitude.items():
+        u = unit(system, name)
+        lines.append(
+            f"    {name:{width}s}  {amp:.9g}  {orbit.half_peak_to_peak[name]:.9g}" + (f" {u}" if u else "")
+        )
+    lines.append(f"  {orbit.message}")
+    return "\n".join(lines)
+
+
+def cmd_orbit(args) -> int:
+    system = resolve_model(args.model)
+    spp = samples_per_period(args)
+    preset, params = parameters(system, args)
+    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
+    system.mode(mode0)  # unknown mode -> ModelError
+    guess = {n: 0.0 for n in system.variable_names}
+    guess.update(pairs(args.x0, "--x0"))
+    initial_state(system, guess, mode0)  # unknown or non-finite values -> ValueError
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    check_integrator(system, params, options)
+    out = output_dir(system, args)
+    announce(system, preset, params)
+    t0 = time.perf_counter()
+    with time_limit(args.max_time):
+        orbit = periodic_orbit(
+            system,
+            params,
+            guess,
+            mode0,
+            options=options,
+            settings=ShootingOptions(transient_periods=args.transient, samples_per_period=spp),
+        )
+    wall = time.perf_counter() - t0
+    summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}
+    summary["multiplier_moduli"] = [float(abs(z)) for z in orbit.multipliers]
+    summary["wall_time_s"] = wall
+    files: list[Path] = []
+    if orbit.converged:
+        out.mkdir(parents=True, exist_ok=True)
+        files.append(write_trajectory_csv(orbit.trajectory, out / "orbit.csv"))
+        if not args.no_plot:
+            from ..plot.trajectory import plot_orbit  # matplotlib only when a figure is wanted
+
+            files.append(plot_orbit(orbit, out / "orbit.png"))
+        summary["files"] = [str(f) for f in files] + [str(out / "orbit.json")]
+        files.append(out / "orbit.json")
+        (out / "orbit.json").write_text(to_json(summary) + "\n")
+    print(to_json(summary) if args.json else orbit_text(orbit, preset))
+    for f in files:
+        info(f"wrote {f}")
+    if not orbit.converged:
+        info(f"hybrid: no periodic orbit: {orbit.message}")
+        return 1
+    info(f"periodic orbit in {wall:.2f} s")
+    return 0

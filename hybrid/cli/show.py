@@ -1,0 +1,102 @@
+"""``hybrid models`` (the built-in models) and ``hybrid show`` (a model's modes, guards and
+transitions, and its network if it is a network file)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..model.filippov import surfaces
+from ..model.loader import describe_model_file, draw_model_file
+from ..model.registry import builtin_models, is_model_file, resolve_model
+from ..model.system import HybridSystem
+from .common import UsageError, info
+
+
+def register(sub) -> None:
+    """Add ``models`` and ``show`` to the subparsers of ``hybrid``."""
+    sub.add_parser("models", help="list the built-in models").set_defaults(handler=cmd_models)
+    p = sub.add_parser("show", help="print a model's modes, guards and transitions (and its network, if any)")
+    p.add_argument("model", help="built-in model name (see `hybrid models`) or path of a model file (.toml)")
+    p.add_argument(
+        "--out", default=None, metavar="PNG", help="also draw the network of a network file to PNG"
+    )
+    p.set_defaults(handler=cmd_show)
+
+
+def cmd_models(args) -> int:
+    models = sorted(builtin_models().items())
+    width = max((len(name) for name, _ in models), default=0)
+    for name, ep in models:
+        system = ep.load()()
+        presets = ", ".join(system.presets) or "-"
+        print(f"{name:{width}s}  {system.title}  [presets: {presets}]")
+    return 0
+
+
+def table(header: Sequence[str], rows: list[Sequence[str]]) -> list[str]:
+    """Rows as text columns, each as wide as its widest cell (the last one left ragged)."""
+    widths = [max(len(str(r[k])) for r in [header, *rows]) for k in range(len(header) - 1)]
+    lines = []
+    for r in [header, *rows]:
+        cells = [str(c).ljust(w) for c, w in zip(r[:-1], widths, strict=True)] + [str(r[-1])]
+        lines.append("  " + "  ".join(cells).rstrip())
+    return lines
+
+
+def show_text(system: HybridSystem, description: str | None = None) -> str:
+    """A model as text: its network (if given), then its modes and its transitions as tables."""
+    lines = [description, ""] if description else []
+    lines.append(f"model `{system.name}`" + (f": {system.title}" if system.title else ""))
+    lines.append(
+        f"  {len(system.variables)} variables, {len(system.modes)} modes, {len(system.transitions)} transitions, "
+        f"initial mode {system.initial_mode or system.mode_names[0]}"
+    )
+    lines.append("")
+    lines.append("modes:")
+    rows = []
+    for m in system.modes:
+        differential = [v for v in system.variable_names if v not in m.algebraic]
+        rows.append((m.name, ", ".join(differential), ", ".join(m.algebraic) or "-"))
+    lines += table(("mode", "differential", "slave (algebraic)"), rows)
+    found = surfaces(system)
+    if found:
+        lines.append("")
+        lines.append("discontinuity surfaces h = 0 of sign(h) (Filippov's convention, docs/filippov.md):")
+        rows = [
+            (s.h, s.mode, s.coefficient, "sliding" if s.slides else "crossing only", ", ".join(s.modes))
+            for s in found
+        ]
+        lines += table(("h", "in mode", "sign(h) is", "on h = 0", "derived modes"), rows)
+    lines.append("")
+    lines.append("transitions:")
+    arrow = {1: "rising", -1: "falling", 0: "either"}
+    rows = [
+        (
+            t.name,
+            t.source,
+            t.target,
+            arrow[t.direction],
+            t.guard,
+            ", ".join(f"{k} = {v}" for k, v in t.reset.items()) or "-",
+        )
+        for t in system.transitions
+    ]
+    lines += table(("name", "from", "to", "crossing", "guard", "reset"), rows)
+    return "\n".join(lines)
+
+
+def cmd_show(args) -> int:
+    system = resolve_model(args.model)
+    is_file = is_model_file(args.model) or Path(args.model).exists()
+    description = describe_model_file(Path(args.model)) if is_file else None
+    if args.out is not None:
+        out = Path(args.out)
+        if not args.out.strip() or out.is_dir() or not out.parent.is_dir():
+            raise UsageError(f"`--out {args.out}` must name a PNG file in an existing folder")
+        if description is None or not draw_model_file(Path(args.model), out):
+            raise UsageError(f"model `{system.name}` is not a network file: there is no network to draw")
+    print(show_text(system, description))
+    if args.out is not None:
+        info(f"wrote {args.out}")
+    return 0

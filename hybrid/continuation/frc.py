@@ -1,0 +1,503 @@
+"""Frequency-response curves: continuation of periodic orbits in the forcing frequency over a range.
+
+:func:`frequency_response` runs :func:`hybrid.continue_orbits` piece by piece:
+the range is cut between consecutive resonances of the linearised initial
+mode (:func:`hybrid.model.linear.natural_frequencies`), so that each piece holds
+one resonance; each piece is continued upwards from its lower end and, if
+that branch stops (or turns back at a fold) before the upper end, downwards
+from the upper end as well. What neither run covers is reported as a gap.
+Nothing here knows the model: the resonances come from its equations.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import signal
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.budget import current_deadline, deadline_passed
+from ..core.budget import restore_deadline as _deadline
+from ..core.callbacks import OnPoint, Progress
+from ..core.errors import InputError, WorkerError
+from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.status import BranchStatus, ResponseStatus
+from ..model.linear import natural_frequencies
+from ..model.system import HybridSystem, shared
+from .branch import Branch, forcing_parameter
+from .forced import continue_orbits
+
+__all__ = ["FrequencyResponse", "frequency_response", "default_range"]
+
+#: Default range around the resonances of the linearised initial mode, as factors of the lowest/highest one.
+RANGE_FACTORS = (0.8, 1.2)
+
+
+def default_range(system: HybridSystem, params: Mapping[str, float]) -> tuple[float, float]:
+    """``(0.8 min, 1.2 max)`` of the natural frequencies of the initial mode at the zero state [rad/s].
+
+    Raises
+    ------
+    ValueError
+        If that linearisation has no oscillating mode.
+    """
+    w = natural_frequencies(system, params)
+    if w.size == 0:
+        raise InputError(
+            f"model `{system.name}`: its initial mode linearised at the zero state has no natural "
+            "frequency to centre the range on; give the range (--omega-range A B)"
+        )
+    return RANGE_FACTORS[0] * float(w[0]), RANGE_FACTORS[1] * float(w[-1])
+
+
+@dataclass
+class Piece:
+    """One part of the range and the branches computed on it.
+
+    Attributes
+    ----------
+    lo, hi : float
+        Bounds of the part [rad/s].
+    resonance : float or None
+        The natural frequency inside the part.
+    branches : list of Branch
+        The upward run (after a failed start at ``lo``, the runs started a little inside), then
+        (if needed) the downward run from ``hi``.
+    gaps : list of (float, float)
+        Parts of ``(lo, hi)`` not covered by any branch.
+    timed_out : bool
+        The deadline of :func:`hybrid.time_limit` passed while it was computed.
+    """
+
+    lo: float
+    hi: float
+    resonance: float | None
+    branches: list = field(default_factory=list)
+    gaps: list = field(default_factory=list)
+    timed_out: bool = False
+
+    @property
+    def gap(self) -> tuple | None:
+        """The first gap (None if the piece is covered)."""
+        return self.gaps[0] if self.gaps else None
+
+
+@dataclass
+class FrequencyResponse:
+    """Result of :func:`frequency_response`.
+
+    Attributes
+    ----------
+    system : HybridSystem
+    params : dict
+        Parameter values (the continued one at the start of the range).
+    parameter : str
+        The continued parameter (by default the forcing frequency, the parameter the period
+        depends on).
+    p_range : tuple of float
+    resonances : ndarray
+        Natural frequencies of the linearised initial mode [rad/s].
+    pieces : list of Piece
+    status : ResponseStatus
+        ``"complete"`` (every part of the range covered, every branch with a point) or
+        ``"incomplete"``.
+    reason : str
+        Why it is incomplete, a code of :data:`hybrid.core.status.RESPONSE_REASONS`
+        (``"time-limit"``: the deadline of :func:`hybrid.time_limit` passed and what was not
+        computed is a gap; ``"gaps"``; ``"empty-branch"``); ``""`` if complete.
+        :meth:`messages` says the same in words.
+    """
+
+    system: HybridSystem
+    params: dict
+    parameter: str
+    p_range: tuple
+    resonances: np.ndarray
+    pieces: list = field(default_factory=list)
+    status: ResponseStatus = ResponseStatus.COMPLETE
+    reason: str = ""
+
+    @property
+    def branches(self) -> list[Branch]:
+        return [b for pc in self.pieces for b in pc.branches]
+
+    @property
+    def gaps(self) -> list[tuple[float, float]]:
+        return [g for pc in self.pieces for g in pc.gaps]
+
+    def conclude(self) -> None:
+        """Set :attr:`status` and :attr:`reason` from the pieces."""
+        if any(pc.timed_out for pc in self.pieces):
+            self.status, self.reason = ResponseStatus.INCOMPLETE, "time-limit"
+        elif self.gaps:
+            self.status, self.reason = ResponseStatus.INCOMPLETE, "gaps"
+        elif not all(b.points for b in self.branches):
+            self.status, self.reason = ResponseStatus.INCOMPLETE, "empty-branch"
+        else:
+            self.status, self.reason = ResponseStatus.COMPLETE, ""
+
+    def messages(self) -> list[str]:
+        """What stopped a branch, and the gaps left."""
+        out = [
+            f"branch {k} ({_span(b)}): {b.message}"
+            for k, b in enumerate(self.branches)
+            if b.status != BranchStatus.COMPLETED
+        ]
+        out += [
+            f"no periodic orbit computed for {self.parameter} in ({a:.8g}, {b:.8g})" for a, b in self.gaps
+        ]
+        if self.reason == "time-limit":
+            out.append("time limit reached (hybrid.time_limit; CLI --max-time): the gaps were not computed")
+        return out
+
+    def rows(self) -> list[dict]:
+        """One dict per orbit of every branch (``branch`` index first), in branch order."""
+        rows = []
+        for k, b in enumerate(self.branches):
+            for row in b.to_rows():
+                rows.append({"branch": k, **row})
+        return rows
+
+    def special_rows(self) -> list[dict]:
+        """One dict per special point; ``row`` is its index in :meth:`rows`."""
+        rows = []
+        offset = 0
+        for k, b in enumerate(self.branches):
+            for sp in b.special:
+                row = {
+                    "branch": k,
+                    "row": offset + sp.index,
+                    "kind": sp.kind,
+                    self.parameter: sp.parameter,
+                    "status": sp.status,
+                    "accuracy": sp.accuracy,
+                    "interval_lo": sp.interval[0],
+                    "interval_hi": sp.interval[1],
+                    "stability": b.points[sp.index].stability,
+                    "description": sp.description,
+                }
+                row.update({f"amplitude_{n}": v for n, v in sp.amplitude.items()})
+                rows.append(row)
+            offset += len(b.points)
+        return rows
+
+    def __repr__(self) -> str:
+        lo, hi = self.p_range
+        n = sum(len(b.points) for b in self.branches)
+        ns = sum(len(b.special) for b in self.branches)
+        return (
+            f"FrequencyResponse({self.system.name} in {self.parameter} from {lo:.6g} to {hi:.6g}: "
+            f"{_count(len(self.branches), 'branch', 'branches')}, {_count(n, 'orbit', 'orbits')}, "
+            f"{_count(ns, 'special point', 'special points')}, {_count(len(self.gaps), 'gap', 'gaps')}; "
+            f"{self.status}" + (f" ({self.reason})" if self.reason else "") + ")"
+        )
+
+
+def _count(n: int, one: str, many: str) -> str:
+    return f"{n} {one if n == 1 else many}"
+
+
+#: Where a branch is started again, as fractions of its piece, when it cannot start at the piece's end.
+NO_START_RETRY = (1e-3, 2e-2)
+
+
+def _uncovered(a: float, b: float, spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Parts of ``(a, b)`` outside every span."""
+    out, at = [], a
+    for lo, hi in sorted(spans):
+        if lo > at:
+            out.append((at, min(lo, b)))
+        at = max(at, hi)
+        if at >= b:
+            break
+    if at < b:
+        out.append((at, b))
+    return [(x, y) for x, y in out if y > x]
+
+
+def _span(b: Branch) -> str:
+    if not b.points:
+        return "no point"
+    p = b.values
+    return f"{b.parameter} {p[0]:.6g} to {p[-1]:.6g}"
+
+
+def _cuts(lo: float, hi: float, w: np.ndarray) -> list[tuple[float, float, float | None]]:
+    """Split ``[lo, hi]`` between consecutive natural frequencies inside it."""
+    inside = [float(x) for x in w if lo < x < hi]
+    edges = [lo] + [0.5 * (a + b) for a, b in zip(inside, inside[1:], strict=False)] + [hi]
+    out = []
+    for a, b in zip(edges, edges[1:], strict=False):
+        res = [x for x in inside if a < x < b]
+        out.append((a, b, res[0] if res else None))
+    return out
+
+
+def frequency_response(
+    system: HybridSystem,
+    params: Mapping[str, float],
+    p_range: tuple[float, float],
+    *,
+    parameter: str | None = None,
+    options: SolverOptions | None = None,
+    settings: ContinuationOptions | None = None,
+    progress: Progress | None = None,
+    on_point: OnPoint | None = None,
+    workers: int = 1,
+    while_computing: Callable[[], None] | None = None,
+    **unexpected,
+) -> FrequencyResponse:
+    """Periodic orbits over a range of the forcing frequency, one piece per resonance.
+
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping
+        All parameter values.
+    p_range : (float, float)
+        ``lo < hi``.
+    parameter : str, optional
+        The forcing frequency's parameter (default: the one parameter the model's period
+        depends on, :func:`hybrid.forcing_parameter`).
+    options : SolverOptions, optional
+        Tolerances and budgets of the runs (default :data:`hybrid.ORBIT_OPTIONS`), e.g.
+        ``SolverOptions(integrator="exact")``.
+    settings : ContinuationOptions, optional
+        Steps, tolerances, location of special points, limits of a branch (default
+        ``ContinuationOptions()``).
+    progress : callable, optional
+        ``progress(fraction)`` with the fraction of the range covered (0 to 1).
+    on_point : callable, optional
+        ``on_point(branch_index, orbit)`` with every orbit as it is accepted (e.g. to write it
+        at once: an interrupted computation keeps what it did), branch after branch
+        (:mod:`hybrid.core.callbacks`).
+    workers : int
+        Pieces computed at once, each in a process forked from this one (where the platform
+        forks; else one after the other). The result is the same as with one: each piece is
+        computed by the same code from the same start. ``on_point`` is called here, in branch
+        order: the orbits of a piece are passed on as soon as the pieces before it are done.
+    while_computing : callable, optional
+        With worker processes: called once here, after the last of them has started (nothing is
+        forked after it), e.g. to start importing in a thread what the caller needs afterwards
+        while the workers compute. Not called when the pieces are computed in this process.
+
+    Returns
+    -------
+    FrequencyResponse
+
+    Raises
+    ------
+    hybrid.core.errors.WorkerError
+        A worker process failed (its exception's type and message in this one's) or ended
+        without a result.
+    hybrid.core.errors.InputError
+        Bad input (before any integration).
+    hybrid.core.errors.InputTypeError
+        A keyword that is a field of ``options`` or ``settings`` (the message says which: e.g.
+        ``integrator="exact"`` belongs in ``options=SolverOptions(integrator="exact")``).
+
+    Examples
+    --------
+    >>> import hybrid
+    >>> from hybrid import resolve_model
+    >>> system = resolve_model("coulomb")
+    >>> params = system.presets["forced"]
+    >>> fr = hybrid.frequency_response(system, params, (0.6, 0.7))  # doctest: +SKIP
+    """
+    reject_keywords("frequency_response", unexpected, options=SolverOptions, settings=ContinuationOptions)
+    if parameter is None:
+        parameter = forcing_parameter(system)
+    lo, hi = (float(v) for v in p_range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise InputError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
+    if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
+        raise InputError(f"`workers` must be an integer >= 1, got {workers!r}")
+    res = natural_frequencies(system, params)
+    out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
+    cuts = _cuts(lo, hi, res)
+    job = _PieceJob(system, dict(params), parameter, options, settings)
+    if workers > 1 and len(cuts) > 1 and "fork" in multiprocessing.get_all_start_methods():
+        out.pieces = _parallel(
+            job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point, while_computing
+        )
+    else:
+        total, done = hi - lo, 0.0
+        for a, b, w in cuts:
+            k0 = len(out.branches)
+            report = (
+                None
+                if progress is None
+                else (lambda f, d=done, a=a, b=b: progress(min(1.0, (d + f * (b - a)) / total)))
+            )
+            sink = None if on_point is None else (lambda j, o, k0=k0: on_point(k0 + j, o))
+            out.pieces.append(job.piece(a, b, w, report, sink))
+            done += b - a
+            if progress is not None:
+                progress(done / total)
+    out.conclude()
+    return out
+
+
+@dataclass
+class _PieceJob:
+    """What every piece of one frequency response shares (read by forked workers from the parent's
+    memory: nothing of it is pickled)."""
+
+    system: HybridSystem
+    params: dict
+    parameter: str
+    options: SolverOptions | None
+    settings: ContinuationOptions | None
+
+    def piece(
+        self,
+        a: float,
+        b: float,
+        w: float | None,
+        progress: Progress | None,
+        on_point: OnPoint | None,
+    ) -> Piece:
+        """The branches over ``(a, b)`` (``progress``: fraction of it covered; ``on_point(j, orbit)``,
+        ``j`` the branch's index in the piece)."""
+        piece = Piece(a, b, w)
+        if deadline_passed():
+            piece.timed_out, piece.gaps = True, [(a, b)]
+            return piece
+
+        def run(start: float, end: float) -> Branch:
+            """A branch from ``start`` towards ``end``."""
+            j = len(piece.branches)
+            covered = abs(start - a) if end > start else abs(end - a)
+            br = continue_orbits(
+                self.system,
+                self.params,
+                self.parameter,
+                (start, end),
+                progress=None
+                if progress is None
+                else (lambda f: progress(min(1.0, (covered + f * abs(end - start)) / (b - a)))),
+                on_point=None if on_point is None else (lambda _, o: on_point(j, o)),
+                options=self.options,
+                settings=self.settings,
+            )
+            piece.branches.append(br)
+            piece.timed_out = piece.timed_out or (br.status == BranchStatus.STOPPED and deadline_passed())
+            return br
+
+        # A start that fails at the end of the range (e.g. a degenerate orbit there), or a branch
+        # that stalls at its first point, is retried a little inside it; what lies before is a gap.
+        for start in [a] + [a + f * (b - a) for f in NO_START_RETRY]:
+            up = run(start, b)
+            stuck = up.reason == "no-start" or (up.reason == "stalled" and len(up.points) <= 1)
+            if not stuck or deadline_passed():
+                break
+        reach = float(np.max(up.values)) if up.points else a
+        if reach < b and deadline_passed():
+            piece.timed_out = True
+        elif reach < b:
+            run(b, reach)
+        piece.gaps = _uncovered(
+            a, b, [(float(np.min(br.values)), float(np.max(br.values))) for br in piece.branches if br.points]
+        )
+        return piece
+
+
+#: The job of the worker processes of :func:`_parallel` and their channel to the parent (set in the
+#: parent before the workers fork: they read it from its memory).
+_WORKER: dict = {}
+
+
+def _worker_main(index: int, a: float, b: float, w: float | None, deadline) -> None:
+    """A forked worker: piece ``index``; its progress, its orbits and then the piece (or the error
+    that stopped it) sent to the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on an interrupt
+    job, queue = _WORKER["job"], _WORKER["queue"]
+    try:
+        with _deadline(deadline):
+            piece = job.piece(
+                a,
+                b,
+                w,
+                lambda f: queue.put(("progress", index, f)),
+                lambda j, o: queue.put(("point", index, j, o)),
+            )
+        queue.put(("done", index, piece))
+    except BaseException as exc:  # noqa: BLE001 - sent to the parent, which raises it
+        queue.put(("error", index, f"{type(exc).__name__}: {exc}"))
+
+
+def _parallel(
+    job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress, on_point, while_computing=None
+) -> list[Piece]:
+    """The pieces computed by up to ``workers`` forked processes at once (one process per piece);
+    progress and orbits relayed here; ``while_computing()`` once the last worker has started. On
+    an interrupt or an error every worker is stopped."""
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.SimpleQueue()
+    shared(job.system)  # the workers' results refer to it
+    _WORKER.update(job=job, queue=queue)
+    pieces: list[Piece | None] = [None] * len(cuts)
+    held: list[list] = [[] for _ in cuts]  # orbits of pieces whose predecessors are not done
+    frac = [0.0] * len(cuts)
+    nxt = 0  # the first piece not passed on completely
+    offset = 0  # branches of the pieces before it
+    running: dict[int, multiprocessing.process.BaseProcess] = {}
+    todo = list(range(len(cuts)))
+    deadline = current_deadline()
+
+    def handle(msg) -> None:
+        nonlocal nxt, offset
+        kind, i = msg[0], msg[1]
+        if kind == "progress":
+            frac[i] = msg[2]
+            if progress is not None:
+                progress(sum(f * (b - a) for f, (a, b, _) in zip(frac, cuts, strict=True)) / (hi - lo))
+        elif kind == "point":
+            if on_point is not None:
+                held[i].append((msg[2], msg[3]))
+        elif kind == "done":
+            pieces[i] = msg[2]
+            running.pop(i).join()
+        else:
+            raise WorkerError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
+        while nxt < len(cuts):  # orbits of the pieces whose predecessors are done, in branch order
+            if on_point is not None:
+                for j, o in held[nxt]:
+                    on_point(offset + j, o)
+            held[nxt] = []
+            if pieces[nxt] is None:
+                break
+            offset += len(pieces[nxt].branches)
+            nxt += 1
+
+    try:
+        while todo or running:
+            while todo and len(running) < workers:
+                i = todo.pop(0)
+                a, b, w = cuts[i]
+                p = ctx.Process(target=_worker_main, args=(i, a, b, w, deadline), daemon=True)
+                p.start()
+                running[i] = p
+                if not todo and while_computing is not None:
+                    while_computing()  # no fork after this: the caller may start threads
+                    while_computing = None
+            if queue._reader.poll(0.05):  # (SimpleQueue's pipe: a timeout, unlike get())
+                handle(queue.get())
+            else:
+                dead = [i for i, p in running.items() if p.exitcode is not None]
+                if dead and not queue._reader.poll(0.1):
+                    i = dead[0]
+                    raise WorkerError(
+                        f"frequency response: the worker of piece {i} ended without a result "
+                        f"(exit code {running[i].exitcode})"
+                    )
+    finally:
+        for p in running.values():  # an interrupt here, or an error: no worker is left running
+            p.terminate()
+        for p in running.values():
+            p.join(5.0)
+        _WORKER.clear()
+    return pieces

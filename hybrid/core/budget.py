@@ -1,0 +1,150 @@
+"""Budgets of a run: a step limit and a wall-clock limit per integration, and a command deadline.
+
+Every integration (one :func:`hybrid.simulate` run, one variational run over a
+period) gets a :class:`Budget` from its :class:`hybrid.SolverOptions`:
+``max_steps`` (IDA's work, counted in residual evaluations over all modes and
+calls) and ``max_wall_time`` [s]. A whole computation (an orbit, a
+continuation, a frequency-response curve) can be given a deadline with
+:func:`time_limit`; every integration loop checks it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+
+from .errors import BudgetExceeded, InputError
+
+__all__ = ["time_limit", "Budget", "deadline_passed"]
+
+_DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("hybrid_deadline", default=None)
+
+#: A run that has used this fraction of its step budget (and at least PROJECTION_MIN residual
+#: evaluations: a start is slow) is stopped early if, at its rate so far, it needs more than
+#: PROJECTION_FACTOR times the budget to reach the end of its time span.
+PROJECTION_AFTER = 0.02
+PROJECTION_MIN = 20_000
+PROJECTION_FACTOR = 4.0
+
+_clock = time.monotonic  # module-level so that tests can drive it
+
+
+@contextmanager
+def time_limit(seconds: float) -> Iterator[None]:
+    """Deadline for every integration started inside the block (nested limits: the earliest wins).
+
+    A run that reaches it stops with ``Status.TIME_LIMIT``; :func:`hybrid.periodic_orbit`
+    returns a failed orbit (``reason`` ``"budget"``), a continuation branch stops (``reason``
+    ``"budget"``), and :func:`hybrid.continuation.frc.frequency_response` returns what it has
+    (``reason`` ``"time-limit"``), each with the details in its message.
+
+    Examples
+    --------
+    >>> import hybrid
+    >>> with hybrid.time_limit(600):
+    ...     pass  # orbits, continuations, simulations
+    """
+    if (
+        isinstance(seconds, bool)
+        or not isinstance(seconds, int | float)
+        or not (math.isfinite(seconds) and seconds > 0)
+    ):
+        raise InputError(f"`time_limit` needs a finite number of seconds > 0, got {seconds!r}")
+    deadline = _clock() + float(seconds)
+    outer = _DEADLINE.get()
+    token = _DEADLINE.set((deadline, float(seconds)) if outer is None or deadline < outer[0] else outer)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
+def current_deadline() -> tuple[float, float] | None:
+    """The deadline in force here, ``(clock time, seconds of its time_limit)``, or None (to be set
+    again in a worker process with :func:`restore_deadline`)."""
+    return _DEADLINE.get()
+
+
+@contextmanager
+def restore_deadline(deadline: tuple[float, float] | None) -> Iterator[None]:
+    """The deadline ``deadline`` (from :func:`current_deadline`) in force inside the block (the
+    clock is the system's monotonic clock, shared by forked processes)."""
+    token = _DEADLINE.set(deadline)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
+def deadline_passed() -> bool:
+    """True inside a :func:`time_limit` block whose deadline has passed."""
+    d = _DEADLINE.get()
+    return d is not None and _clock() >= d[0]
+
+
+class Budget:
+    """The step and wall-clock budget of one integration over ``[t0, t1]``.
+
+    Parameters
+    ----------
+    options : SolverOptions
+        ``max_steps`` and ``max_wall_time``.
+    t0, t1 : float
+        The integration's time span (for progress and the rate projection).
+    """
+
+    def __init__(self, options, t0: float, t1: float):
+        self.max_steps = int(options.max_steps)
+        self.wall = float(options.max_wall_time)
+        self.start = _clock()
+        own = self.start + self.wall
+        cmd = _DEADLINE.get()
+        self.command = cmd is not None and cmd[0] < own
+        self.deadline = cmd[0] if self.command else own
+        self.command_seconds = cmd[1] if cmd is not None else None
+        self.t0, self.t1 = float(t0), float(t1)
+        self.used = 0  # residual evaluations charged so far (by callers that keep the count here)
+
+    def _where(self, t: float) -> str:
+        frac = (t - self.t0) / (self.t1 - self.t0) if self.t1 > self.t0 else 1.0
+        return f"at t={t!r} ({100.0 * frac:.3g} % of the time span)"
+
+    def check(self, used: int, t: float, where: str = "") -> None:
+        """Raise :class:`BudgetExceeded` if ``used`` residual evaluations or the time exhaust the budget.
+
+        ``where`` (e.g. ``" in mode `a`"``) is added to the message.
+        """
+        now = _clock()
+        if now >= self.deadline:
+            if self.command:
+                msg = (
+                    f"time limit reached: the computation's limit of {self.command_seconds:g} s "
+                    f"(hybrid.time_limit; CLI --max-time) ran out {self._where(t)}{where}; "
+                    "give it more time (--max-time) or ask for less"
+                )
+            else:
+                msg = (
+                    f"time limit reached: {now - self.start:.3g} s of wall-clock time "
+                    f"(SolverOptions.max_wall_time = {self.wall:g} s; CLI --max-time) {self._where(t)}{where}; "
+                    "raise max_wall_time (--max-time) or shorten the run"
+                )
+            raise BudgetExceeded("time", msg)
+        if used >= self.max_steps:
+            raise BudgetExceeded(
+                "steps",
+                f"step limit reached: {used} IDA residual evaluations (SolverOptions.max_steps = "
+                f"{self.max_steps}; CLI --max-steps) {self._where(t)}{where}; raise max_steps "
+                "(--max-steps) or shorten the run",
+            )
+        if used >= max(PROJECTION_AFTER * self.max_steps, PROJECTION_MIN) and self.t1 > t > self.t0:
+            need = used * (self.t1 - self.t0) / (t - self.t0)
+            if need > PROJECTION_FACTOR * self.max_steps:
+                raise BudgetExceeded(
+                    "projected",
+                    f"step limit: at its rate so far this run needs about {need:.2g} IDA residual "
+                    f"evaluations, over its budget SolverOptions.max_steps = {self.max_steps} "
+                    f"(CLI --max-steps): stopped after {used} {self._where(t)}{where}",
+                )

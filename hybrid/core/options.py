@@ -1,0 +1,373 @@
+"""Options of every computation (frozen, validated at construction), nested where they nest.
+
+* :class:`SolverOptions`: one integration (tolerances, budgets, the integrator); every function
+  that integrates takes it as ``options=``;
+* the algorithm's own options, as ``settings=``: :class:`NewtonOptions` (one Newton iteration:
+  an equilibrium, a Hopf point), :class:`ShootingOptions` (one periodic orbit: its Newton
+  options, transient and samples), :class:`ContinuationOptions` (a branch: steps, special
+  points, limits, and its corrector's Newton options).
+
+A wrong value raises :class:`ValueError` naming the class, the field and the value; a keyword
+that belongs in one of these objects, passed loose to a function, raises :class:`TypeError`
+saying which object takes it (:func:`reject_keywords`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, is_dataclass
+
+from .errors import InputError, InputTypeError
+
+__all__ = [
+    "SolverOptions",
+    "NewtonOptions",
+    "ShootingOptions",
+    "ContinuationOptions",
+    "check_samples",
+    "reject_keywords",
+    "MIN_SAMPLES",
+]
+
+
+def _positive(name: str, value, *, allow_none: bool = False, owner: str = "SolverOptions") -> None:
+    if value is None and allow_none:
+        return
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise InputError(f"{owner}: `{name}` must be a finite number > 0, got {value!r}")
+
+
+def _integer(owner: str, name: str, value, lo: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+        raise InputError(f"{owner}: `{name}` must be an integer >= {lo}, got {value!r}")
+
+
+def _nested(owner: str, name: str, value, cls: type) -> None:
+    if not isinstance(value, cls):
+        raise InputTypeError(f"{owner}: `{name}` must be a {cls.__name__}, got {type(value).__name__}")
+
+
+#: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
+MIN_SAMPLES = 16
+
+
+def check_samples(samples_per_period, owner: str = "") -> None:
+    """Refuse a number of samples per period that is not an integer >= :data:`MIN_SAMPLES`
+    (``owner``: the options class named in the message)."""
+    if (
+        isinstance(samples_per_period, bool)
+        or not isinstance(samples_per_period, int)
+        or samples_per_period < MIN_SAMPLES
+    ):
+        raise InputError(
+            (f"{owner}: " if owner else "")
+            + f"`samples_per_period` must be an integer >= {MIN_SAMPLES} (the amplitudes are taken from the "
+            f"samples), got {samples_per_period!r}"
+        )
+
+
+#: Integrators of a mode's flow: IDA (any model) and the exact flow of affine modes.
+INTEGRATORS = ("ida", "exact")
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of :func:`hybrid.simulate`.
+
+    Attributes
+    ----------
+    rtol : float
+        Relative tolerance of IDA (1e-14 <= rtol <= 1e-2).
+    atol : float or mapping of str to float
+        Absolute tolerance, one value or per variable name (unnamed variables
+        get ``atol_default``).
+    atol_default : float
+        Absolute tolerance of variables not named in a mapping ``atol``.
+    max_step : float or None
+        Largest step [s]. ``None``: a sixteenth of the forcing period, or a
+        fiftieth of the time span if the system declares no period.
+    max_num_steps : int
+        Internal steps IDA may take per call (the engine goes on from where a
+        call stopped, within ``max_steps``).
+    max_steps : int
+        Budget of one integration (a simulation, or the variational run of
+        one period), all modes and calls together, counted in IDA residual
+        evaluations (every internal step takes at least one; with the exact
+        Jacobian usually one or two). A run that exhausts it stops with
+        ``Status.STEP_LIMIT``; so does a run that, after 2 % of it (and at
+        least 20 000), needs more than four times it at its rate so far (e.g. dynamics far faster than
+        the forcing). The default allows about ten thousand forcing periods
+        of the shipped models.
+    max_wall_time : float
+        Wall-clock budget of one integration [s] (``Status.TIME_LIMIT``). A
+        whole computation is limited by :func:`hybrid.time_limit`.
+    zeno_count : int
+        A burst of this many transitions ...
+    zeno_window : float or None
+        ... within this time [s] stops the run as a Zeno burst. ``None``:
+        1e-6 times the forcing period, or 1e-6 s for a model without one
+        (independent of the time span).
+    max_chain : int
+        Transitions allowed at one instant (chained switches) before the run
+        stops with "no admissible mode".
+    taylor_order : int
+        Order of the Taylor series used to decide the successor mode at a
+        switch where a guard of the new mode starts at zero.
+    guard_noise : float
+        Safety factor on the noise level of a guard, ``sum_j |dh/dy_j|
+        (atol_j + rtol |y_j|)``: within it a guard counts as zero at a
+        switch and stays disarmed until it has left it.
+    integrator : {"ida", "exact"}
+        ``"ida"`` (default): SUNDIALS IDA, any model. ``"exact"``: matrix
+        exponentials and exact guard roots, for models whose modes and guards
+        are all affine in the state with time only in sin/cos of one forcing
+        frequency (:mod:`hybrid.integrators.exact`); another model is refused naming its
+        first non-affine term. The tolerances do not apply to it.
+    """
+
+    rtol: float = 1e-8
+    atol: float | Mapping[str, float] = 1e-10
+    atol_default: float = 1e-10
+    max_step: float | None = None
+    max_num_steps: int = 50_000
+    max_steps: int = 10_000_000
+    max_wall_time: float = 900.0
+    zeno_count: int = 20
+    zeno_window: float | None = None
+    max_chain: int = 8
+    taylor_order: int = 4
+    guard_noise: float = 10.0
+    integrator: str = "ida"
+    _atol_map: Mapping[str, float] = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        _positive("rtol", self.rtol)
+        if not 1e-14 <= self.rtol <= 1e-2:
+            raise InputError(f"SolverOptions: `rtol` must lie in [1e-14, 1e-2], got {self.rtol!r}")
+        if isinstance(self.atol, Mapping):
+            for k, v in self.atol.items():
+                _positive(f"atol[{k!r}]", v)
+            object.__setattr__(self, "_atol_map", dict(self.atol))
+        else:
+            _positive("atol", self.atol)
+        _positive("atol_default", self.atol_default)
+        _positive("max_step", self.max_step, allow_none=True)
+        _positive("zeno_window", self.zeno_window, allow_none=True)
+        _positive("guard_noise", self.guard_noise)
+        _positive("max_wall_time", self.max_wall_time)
+        for name in ("max_num_steps", "max_steps", "zeno_count", "max_chain", "taylor_order"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise InputError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")
+        if self.integrator not in INTEGRATORS:
+            raise InputError(
+                f"SolverOptions: `integrator` must be one of {', '.join(INTEGRATORS)}, got {self.integrator!r}"
+            )
+        if self.taylor_order < 2:
+            raise InputError(
+                "SolverOptions: `taylor_order` must be >= 2 (a switch into stick needs the second order)"
+            )
+
+    def atol_vector(self, names) -> list[float]:
+        """Absolute tolerance per variable, in ``names`` order."""
+        if self._atol_map is None:
+            return [float(self.atol)] * len(names)
+        unknown = set(self._atol_map) - set(names)
+        if unknown:
+            raise InputError(
+                f"SolverOptions: `atol` names unknown variable(s) {sorted(unknown)}; variables: {list(names)}"
+            )
+        return [float(self._atol_map.get(n, self.atol_default)) for n in names]
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """Tolerance and iteration cap of one Newton iteration (frozen, validated).
+
+    What ``tol`` bounds is the iteration's own measure, given by the function that takes it:
+    the residual of the period map relative to the state (periodic orbits, a continuation's
+    corrector), ``max |f|`` relative to ``max(1, max |x|)`` (equilibria), the bracket's width
+    relative to the parameter (:func:`hybrid.locate_hopf`'s secant).
+
+    Attributes
+    ----------
+    tol : float
+        Tolerance (> 0, dimensionless).
+    max_iter : int
+        Iterations allowed (>= 1).
+    """
+
+    tol: float = 1e-9
+    max_iter: int = 30
+
+    def __post_init__(self):
+        _positive("tol", self.tol, owner="NewtonOptions")
+        _integer("NewtonOptions", "max_iter", self.max_iter, 1)
+
+
+@dataclass(frozen=True)
+class ShootingOptions:
+    """Options of one periodic orbit (:func:`hybrid.periodic_orbit`, :func:`hybrid.autonomous_orbit`).
+
+    Attributes
+    ----------
+    newton : NewtonOptions
+        Newton's method on the period map: ``tol`` on ``max |P(x) - x| / max |x|``, ``max_iter``
+        iterations (default 1e-9, 30).
+    transient_periods : int
+        Forcing periods (autonomous orbits: period guesses, at least 1) simulated from the guess
+        before Newton's method (>= 0). ``0`` with a given ``t0``: the section is the guess itself.
+    samples_per_period : int
+        Samples of the returned one-period trajectory (>= :data:`MIN_SAMPLES`).
+    """
+
+    newton: NewtonOptions = NewtonOptions(tol=1e-9, max_iter=30)
+    transient_periods: int = 10
+    samples_per_period: int = 512
+
+    def __post_init__(self):
+        _nested("ShootingOptions", "newton", self.newton, NewtonOptions)
+        _integer("ShootingOptions", "transient_periods", self.transient_periods, 0)
+        check_samples(self.samples_per_period, "ShootingOptions")
+
+
+@dataclass(frozen=True)
+class ContinuationOptions:
+    """Options of a continuation (frozen, validated).
+
+    Taken by :func:`hybrid.continue_orbits`, :func:`hybrid.frequency_response` and
+    :func:`hybrid.sweep` (forced orbits) and by :func:`hybrid.orbit_branch` and
+    :func:`hybrid.hopf_branch` (autonomous orbits). The defaults below are the forced branches';
+    the autonomous ones default to
+    :data:`hybrid.continuation.autonomous.AUTONOMOUS_CONTINUATION` (``ds_min`` 1e-6, ``ds_max``
+    0.2, ``max_points`` 200, ``samples_per_period`` 256) and read only ``ds``, ``ds_min``,
+    ``ds_max``, ``max_points``, ``newton`` and ``samples_per_period``.
+
+    Forced branches step in scaled arclength: the state relative to its current size, the
+    parameter relative to the width of the range ``|p_range[1] - p_range[0]|``; autonomous
+    ones in the unknowns' own units (state, period, parameter).
+
+    Attributes
+    ----------
+    ds, ds_min, ds_max : float
+        Initial, smallest and largest step (``ds_min <= ds <= ds_max``).
+    max_points : int
+        Points computed at most per branch (located special points not counted).
+    newton : NewtonOptions
+        The corrector's Newton iteration: ``tol`` on the scaled residual of the period map,
+        ``max_iter`` iterations per step (default 1e-9, 8). (A forced branch's first orbit is
+        solved with the same ``tol`` and :data:`FIRST_ORBIT_MAX_ITER` iterations.)
+    step_tol : float
+        The corrector has converged when its scaled update is below this (or below the noise
+        level of the map, ``10 cond rtol``, whichever is larger) and the residual below ``tol``.
+    max_angle : float
+        Largest turn [rad] of the branch's tangent (in scaled coordinates) from one point to the
+        next: a sharper turn shrinks the next step, so that the curve is resolved where it bends
+        (e.g. at a resonance peak), not only where the corrector needs it.
+    locate : bool
+        Locate special points (else they are reported ``bracketed`` by the step).
+    locate_tol : float
+        Accuracy of a located special point in the parameter, relative to the width of the range.
+    locate_max_iter : int
+        Corrector solves spent at most on locating one special point.
+    max_growth : float
+        A branch whose state grows by this factor over its first orbit is declared unbounded
+        (``"unbounded"``): it stops there.
+    max_failures : int
+        Failed corrector steps in a row (each with a quarter of the step) before the branch is
+        given up as stalled.
+    transient_periods : int
+        Periods simulated from the guess before the first orbit.
+    samples_per_period : int
+        Samples of each stored orbit's trajectory. The amplitudes are located on the quintic
+        interpolant of the samples (its error is ``O((T/n)^6)``): with the default 64 they agree with
+        those from 2048 samples to 2e-11 relative along the dampers' bands (256: 1.5e-14), at a
+        quarter of the sampling cost.
+    """
+
+    ds: float = 0.02
+    ds_min: float = 1e-7
+    ds_max: float = 0.5
+    max_points: int = 2000
+    newton: NewtonOptions = NewtonOptions(tol=1e-9, max_iter=8)
+    step_tol: float = 1e-9
+    max_angle: float = 0.1
+    locate: bool = True
+    locate_tol: float = 1e-10
+    locate_max_iter: int = 40
+    max_growth: float = 1e6
+    max_failures: int = 12
+    transient_periods: int = 10
+    samples_per_period: int = 64
+
+    def __post_init__(self):
+        _nested("ContinuationOptions", "newton", self.newton, NewtonOptions)
+        for name in ("ds", "ds_min", "ds_max", "step_tol", "locate_tol", "max_growth", "max_angle"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
+                raise InputError(f"ContinuationOptions: `{name}` must be a number > 0, got {v!r}")
+        if not self.ds_min <= self.ds <= self.ds_max:
+            raise InputError(
+                f"ContinuationOptions: need ds_min <= ds <= ds_max, got {self.ds_min}, {self.ds}, {self.ds_max}"
+            )
+        if self.max_growth <= 1:
+            raise InputError(f"ContinuationOptions: `max_growth` must be > 1, got {self.max_growth!r}")
+        check_samples(self.samples_per_period, "ContinuationOptions")
+        for name in ("max_points", "locate_max_iter", "max_failures"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise InputError(f"ContinuationOptions: `{name}` must be an integer >= 1, got {v!r}")
+        v = self.transient_periods
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise InputError(f"ContinuationOptions: `transient_periods` must be an integer >= 0, got {v!r}")
+        if not isinstance(self.locate, bool):
+            raise InputError(f"ContinuationOptions: `locate` must be True or False, got {self.locate!r}")
+
+
+#: Newton iterations of a forced branch's first orbit (from its transient).
+FIRST_ORBIT_MAX_ITER = 30
+
+
+def _field_path(cls: type, name: str, value) -> str | None:
+    """``Cls(name=value)`` or ``Cls(inner=Inner(name=value))`` if ``name`` is a field of the options
+    class ``cls`` or of one nested in it, else None."""
+    for f in fields(cls):
+        if f.name == name and f.init:
+            return f"{cls.__name__}({name}={value!r})"
+    for f in fields(cls):
+        if is_dataclass(f.default) and not isinstance(f.default, type):
+            inner = _field_path(type(f.default), name, value)
+            if inner is not None:
+                return f"{cls.__name__}({f.name}={inner})"
+    return None
+
+
+def reject_keywords(function: str, keywords: Mapping, **where: type) -> None:
+    """Raise :class:`hybrid.core.errors.InputTypeError` (a :class:`TypeError`) for ``keywords`` that ``function`` does not take, saying for each
+    one that is a field of an options class in ``where`` (argument name -> class) what to pass
+    instead, e.g. ``options=SolverOptions(integrator='exact')``.
+
+    Raises
+    ------
+    hybrid.core.errors.InputTypeError
+        If ``keywords`` is not empty.
+    """
+    if not keywords:
+        return
+    hints = []
+    for name, value in keywords.items():
+        for arg, cls in where.items():
+            path = _field_path(cls, name, value)
+            if path is not None:
+                hints.append(f"`{name}` is an option: pass {arg}={path}")
+                break
+        else:
+            hints.append(f"`{name}` is not an argument of {function}()")
+    names = ", ".join(repr(k) for k in keywords)
+    raise InputTypeError(f"{function}() got unexpected keyword argument(s) {names}: " + "; ".join(hints))

@@ -1,0 +1,558 @@
+"""Affine modes as exact linear flows: the analysis the exact integrator runs on.
+
+A mode is *affine* when its derivatives and algebraic equations are affine in
+the state, with time entering only through ``sin`` and ``cos`` of one forcing
+frequency ``w`` (arguments ``k t + phi`` with ``|k| = w``), and its guards are
+affine too. Then, with the slave variables ``y_a`` eliminated from the
+algebraic equations (``y_a = -G_a^-1 (G_d y_d + g(t))``) and the state
+augmented by ``S = sin(w t)``, ``C = cos(w t)`` and ``1``, the flow is linear::
+
+    z = [y_d, S, C, 1],   z' = M z,   z(t + h) = expm(M h) z(t)
+
+(quadratures excluded from ``y_d``; a quadrature whose rate is a quadratic form of the state
+integrates exactly too, see :mod:`hybrid.integrators.flow`).
+
+The analysis is done once per system (:func:`system_analysis`) on its own
+expressions, the parameters kept as symbols: every coefficient (of the state,
+of ``S``, ``C`` and 1, the forcing rates and phases, guard rows, quadrature
+forms) is an expression in the parameters, and all are compiled into one
+function of the parameter vector, so the flows at a new parameter set
+(:func:`affine_flows`) cost a fraction of a millisecond instead of a
+compilation of the system. :func:`affine_mode` refuses a non-affine mode naming the first
+non-affine term.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.errors import NotAffineError
+from ..model.codegen import compile_many
+from ..model.compiled import CompiledMode, CompiledSystem
+from ..model.expr import ZERO, Expr, diff, postorder, replace_nodes, substitute, sym, to_string
+from ..model.expr import add as e_add
+from ..model.expr import call as e_call
+from ..model.expr import mul as e_mul
+from ..model.expr import num as e_num
+from ..model.expr import sub as e_sub
+from .flow import Flow, _cond1, shared_flow
+
+#: Symbols of ``sin(w t)`` and ``cos(w t)`` in the augmented state (not valid model names).
+_S, _C = "__sin_wt", "__cos_wt"
+
+__all__ = [
+    "AffineAnalysis",
+    "AffineMode",
+    "affine_coefficients",
+    "affine_flows",
+    "affine_mode",
+    "affine_system",
+    "exact_flows",
+    "system_analysis",
+]
+
+
+@dataclass
+class AffineMode:
+    """One mode as an exact linear flow of the augmented state ``z = [y_d, S, C, 1]``.
+
+    Attributes
+    ----------
+    cm : CompiledMode or None
+        The compiled mode (name and guards; None for a flow alone).
+    omega : float or None
+        Forcing frequency ``w`` [rad/s] (None: autonomous; then ``z = [y_d, 1]``).
+    d, a, q : ndarray of int
+        State indices of the differential (non-quadrature), slave and quadrature variables.
+    M : ndarray, shape (nz, nz)
+        Generator of the augmented flow.
+    P : ndarray, shape (n, nz)
+        The full state from the augmented one (quadrature rows zero).
+    Q : ndarray, shape (len(q), nz, nz)
+        Quadrature rates as quadratic forms ``z^T Q_j z``.
+    W : ndarray, shape (n_guards, nz)
+        Guards as linear functions ``W z``.
+    """
+
+    cm: CompiledMode | None
+    omega: float | None
+    d: np.ndarray
+    a: np.ndarray
+    q: np.ndarray
+    M: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    W: np.ndarray
+
+    @property
+    def nz(self) -> int:
+        return self.M.shape[0]
+
+    def flow(self) -> Flow:
+        """The mode's :class:`Flow` (built on first use; shared by every mode with the same matrices,
+        e.g. a run's and its monodromy's at one parameter value)."""
+        f = self.__dict__.get("_flow")
+        if f is None:
+            f = self.__dict__["_flow"] = shared_flow(self.M, self.Q)
+        return f
+
+    def augment(self, t: float, y: np.ndarray) -> np.ndarray:
+        """``z`` at ``(t, y)`` (the slave variables of ``y`` are not read)."""
+        forcing = [math.sin(self.omega * t), math.cos(self.omega * t)] if self.omega is not None else []
+        return np.concatenate([np.asarray(y, dtype=float)[self.d], forcing, [1.0]])
+
+    def state(self, z: np.ndarray, quad: np.ndarray) -> np.ndarray:
+        """The full state from ``z`` and the quadrature values."""
+        y = self.P @ z
+        y[self.q] = quad
+        return y
+
+    def guard_series(self, k: int, t: float, y: np.ndarray, order: int) -> np.ndarray:
+        """Taylor coefficients ``W_k M^j z / j!``, ``j <= order``, of guard ``k`` along the flow from ``(t, y)``."""
+        z = self.augment(t, y)
+        out = np.empty(order + 1)
+        row = self.W[k]
+        for j in range(order + 1):
+            out[j] = row @ z
+            row = (row @ self.M) / (j + 1)
+        return out
+
+    def derivatives(self, z: np.ndarray) -> np.ndarray:
+        """Consistent ``y'`` at ``z`` (slave rows ``P_a M z``, quadrature rows ``z^T Q_j z``)."""
+        PM = self.__dict__.get("_PM")
+        if PM is None:
+            PM = self.__dict__["_PM"] = self.P @ self.M
+        yp = PM @ z
+        if self.q.size:
+            yp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, z)
+        return yp
+
+    def second_derivatives(self, z: np.ndarray) -> np.ndarray:
+        """``y''`` at ``z``, exactly: ``P M^2 z``; quadrature rows ``z^T Q_j M z + (M z)^T Q_j z``."""
+        PMM = self.__dict__.get("_PMM")
+        if PMM is None:
+            PMM = self.__dict__["_PMM"] = self.P @ self.M @ self.M
+        ypp = PMM @ z
+        if self.q.size:
+            mz = self.M @ z
+            ypp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, mz) + np.einsum("j,qjk,k->q", mz, self.Q, z)
+        return ypp
+
+
+def _phase_nodes(
+    exprs: list[Expr], where: str, params: frozenset, first: int
+) -> tuple[list[Expr], dict[Expr, Expr]]:
+    """Replacements of the ``sin``/``cos`` terms of the time by the symbols ``S``, ``C``.
+
+    Returns the rates ``k`` of the arguments ``k t + phi`` (expressions in the parameters; the
+    frequency is ``w = |k|``) and the replacements, which read the sign of the ``j``-th rate
+    from the symbol ``__sg{first + j}``.
+    """
+    rates: list[Expr] = []
+    mapping: dict[Expr, Expr] = {}
+    for node in postorder(exprs):
+        if node.op != "call" or "t" not in node.free:
+            continue
+        fname, arg = node.args
+        if fname not in ("sin", "cos") or arg.free - params != {"t"}:
+            raise NotAffineError(
+                f"{where}: time enters through `{to_string(node, 80)}`; the exact integrator allows time only "
+                "in sin/cos of one forcing frequency times t (plus a phase)"
+            )
+        k = diff(arg, "t")
+        if k.free - params or (k.op == "num" and k.args[0] == 0.0):
+            raise NotAffineError(f"{where}: `{to_string(node, 80)}` is not sin/cos of (constant * t + phase)")
+        phi = substitute(arg, {"t": e_num(0.0)})
+        sg = sym(f"__sg{first + len(rates)}")
+        rates.append(k)
+        s, c = sym(_S), sym(_C)
+        cphi, sphi = e_call("cos", phi), e_call("sin", phi)
+        # sin(sg w t + phi) = cos(phi) sg S + sin(phi) C;  cos(sg w t + phi) = cos(phi) C - sin(phi) sg S
+        if fname == "sin":
+            rep = e_add(e_mul(e_mul(sg, cphi), s), e_mul(sphi, c))
+        else:
+            rep = e_sub(e_mul(cphi, c), e_mul(e_mul(sg, sphi), s))
+        mapping[node] = rep
+    return rates, mapping
+
+
+def _shown(text: str) -> str:
+    return text.replace(_S, "sin(w t)").replace(_C, "cos(w t)")
+
+
+def affine_coefficients(e: Expr, symbols: list[str], params: frozenset, where: str) -> list[Expr]:
+    """Coefficients ``[d e/d u_j ..., e(u = 0)]`` of an expression affine in ``symbols``."""
+    extra = e.free - set(symbols) - params
+    if extra:
+        name = sorted(extra)[0]
+        raise NotAffineError(f"{where} depends on `{name}` otherwise than affinely through sin/cos of t")
+    state = set(symbols)
+    out = []
+    for s in symbols:
+        if s not in e.free:
+            out.append(ZERO)
+            continue
+        g = diff(e, s)
+        if g.free & state:
+            shown = {_S: "sin(w t)", _C: "cos(w t)"}.get(s, s)
+            raise NotAffineError(
+                _shown(f"{where} is not affine in `{shown}`: its derivative is `{to_string(g, 120)}`")
+            )
+        out.append(g)
+    out.append(substitute(e, {s: ZERO for s in symbols}))
+    return out
+
+
+def _quadratic(e: Expr, symbols: list[str], params: frozenset, where: str) -> list[list[Expr]]:
+    """``Q`` (expressions) with ``e = u^T Q u``, ``u = [symbols, 1]``, for a quadratic ``e``."""
+    n = len(symbols)
+    Q = [[ZERO] * (n + 1) for _ in range(n + 1)]
+    state = set(symbols)
+    zeros = {s: ZERO for s in symbols}
+    half = e_num(0.5)
+    for j, s in enumerate(symbols):
+        if s not in e.free:
+            continue
+        g = diff(e, s)
+        Q[j][n] = Q[n][j] = e_mul(half, substitute(g, zeros))
+        for k in range(j, n):
+            if symbols[k] not in g.free:
+                continue
+            h = diff(g, symbols[k])
+            if h.free & state:
+                raise NotAffineError(f"{where} is not quadratic in the state: `{to_string(h, 120)}`")
+            Q[j][k] = Q[k][j] = e_mul(half, h)
+    extra = e.free - state - params
+    if extra:
+        raise NotAffineError(f"{where} depends on `{sorted(extra)[0]}` otherwise than through sin/cos of t")
+    Q[n][n] = substitute(e, zeros)
+    return Q
+
+
+@dataclass
+class _ModeForm:
+    """One mode's affine form: coefficient expressions, as positions in the analysis' value vector."""
+
+    name: str
+    names: tuple[str, ...]
+    d: np.ndarray
+    a: np.ndarray
+    q: np.ndarray
+    rates: list[int]  # positions of this mode's forcing rates among the analysis' rates
+    F: np.ndarray  # (nd, nu + 1) rows of the derivatives over [u, 1]
+    G: np.ndarray  # (na, nu + 1) rows of the algebraic equations
+    Wu: np.ndarray  # (ng, nu + 1) rows of the guards
+    Qu: np.ndarray  # (nq, nu + 1, nu + 1) quadratic forms of the quadrature rates
+
+
+class AffineAnalysis:
+    """The affine analysis of modes, done once, parametric in the parameters (see :func:`system_analysis`).
+
+    Every coefficient (of the state, of ``S``, ``C`` and 1; the forcing rates
+    and phases; guard rows; quadrature forms) is an expression in the
+    parameters; all are compiled into one function of the parameter vector,
+    so :meth:`evaluate` builds ``M``, ``P``, ``Q``, ``W`` of every mode in
+    microseconds.
+
+    Parameters
+    ----------
+    modes : list of (name, names, diff_idx, alg_idx, f_expr, g_expr, guard exprs)
+        The modes' equations (``f_expr``/``g_expr`` by state index).
+    quadratures : tuple of str
+    params : tuple of str
+        Parameters kept as symbols (an empty tuple for folded expressions).
+
+    Raises
+    ------
+    NotAffineError
+        Naming the mode, the equation and the first non-affine term.
+    """
+
+    def __init__(self, modes, quadratures: tuple[str, ...], params: tuple[str, ...]):
+        self.params = tuple(params)
+        pset = frozenset(params)
+        self._values: list[Expr] = [ZERO]  # position 0: zero
+        self._where: dict[Expr, int] = {ZERO: 0}
+        self._rates: list[Expr] = []
+        self._rate_mode: list[str] = []
+        self.forms: list[_ModeForm] = []
+        for name, names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
+            self.forms.append(
+                self._form(name, list(names), diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset)
+            )
+        nsg = len(self._rates)
+        slots = {p: i for i, p in enumerate(self.params)}
+        slots.update({f"__sg{j}": len(self.params) + j for j in range(nsg)})
+        self._const = np.array([e.args[0] if e.op == "num" else 0.0 for e in self._values])
+        self._dyn = np.array([i for i, e in enumerate(self._values) if e.op != "num"], dtype=int)
+        self._fn = (
+            compile_many([self._values[i] for i in self._dyn], slots, "affine") if self._dyn.size else None
+        )
+        self._rate_fn = compile_many(self._rates, slots, "rates") if self._rates else None
+
+    def _pos(self, e: Expr) -> int:
+        k = self._where.get(e)
+        if k is None:
+            k = self._where[e] = len(self._values)
+            self._values.append(e)
+        return k
+
+    def _form(self, name, names, diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset) -> _ModeForm:
+        where = f"mode `{name}`"
+        qset = {names.index(q) for q in quadratures if q in names}
+        d = np.array([i for i in diff_idx if i not in qset], dtype=int)
+        a = np.array(alg_idx, dtype=int)
+        q = np.array(sorted(qset), dtype=int)
+        exprs = [f_expr[i] for i in diff_idx] + [g_expr[i] for i in a] + [e for _, e in guards]
+        rates, mapping = _phase_nodes(exprs, where, pset, len(self._rates))
+        first = len(self._rates)
+        self._rates += rates
+        self._rate_mode += [name] * len(rates)
+        pset = pset | {f"__sg{j}" for j in range(first, len(self._rates))}
+
+        def sub(e: Expr) -> Expr:
+            return replace_nodes(e, mapping) if mapping else e
+
+        symbols = names + ([_S, _C] if rates else [])
+
+        def row(e: Expr, what: str) -> list[int]:
+            return [self._pos(c) for c in affine_coefficients(sub(e), symbols, pset, f"{where}: {what}")]
+
+        nu = len(symbols)
+        F = np.array([row(f_expr[i], f"derivative of `{names[i]}`") for i in d], dtype=int).reshape(
+            d.size, nu + 1
+        )
+        G = np.array([row(g_expr[i], f"algebraic equation of `{names[i]}`") for i in a], dtype=int).reshape(
+            a.size, nu + 1
+        )
+        Qu = np.array(
+            [
+                [
+                    [self._pos(c) for c in r]
+                    for r in _quadratic(
+                        sub(f_expr[i]), symbols, pset, f"{where}: derivative of quadrature `{names[i]}`"
+                    )
+                ]
+                for i in q
+            ],
+            dtype=int,
+        ).reshape(q.size, nu + 1, nu + 1)
+        W = np.array([row(e, f"guard `{gname}`") for gname, e in guards], dtype=int).reshape(
+            len(guards), nu + 1
+        )
+        return _ModeForm(name, tuple(names), d, a, q, list(range(first, len(self._rates))), F, G, W, Qu)
+
+    def evaluate(self, values) -> list[tuple]:
+        """``(omega, d, a, q, M, P, Q, W)`` of every mode at the parameter vector ``values``.
+
+        Raises
+        ------
+        NotAffineError
+            Forcing at a zero frequency or at different frequencies, or slave
+            variables not determined by the algebraic equations, at these values.
+        """
+        v = [float(x) for x in values]
+        key = tuple(v)
+        cache = self.__dict__.setdefault("_evaluated", {})
+        hit = cache.pop(key, None)
+        if hit is None:
+            hit = self._evaluate(v)
+            for form in hit:
+                for x in form:
+                    if isinstance(x, np.ndarray):
+                        x.flags.writeable = False  # shared by every flow at these values
+            if len(cache) >= 16:
+                del cache[next(iter(cache))]
+        cache[key] = hit  # most recent last
+        return hit
+
+    def _evaluate(self, v: list[float]) -> list[tuple]:
+        signs: list[float] = []
+        omegas: list[float | None] = [None] * len(self.forms)
+        if self._rate_fn is not None:
+            rates = self._rate_fn(v)
+            for j, k in enumerate(rates):
+                where = f"mode `{self._rate_mode[j]}`"
+                if k == 0.0 or not math.isfinite(k):
+                    raise NotAffineError(f"{where}: the forcing frequency is {k!r} at these parameter values")
+                signs.append(1.0 if k > 0 else -1.0)
+            for m, form in enumerate(self.forms):
+                for j in form.rates:
+                    w = abs(rates[j])
+                    if omegas[m] is None:
+                        omegas[m] = w
+                    elif not math.isclose(w, omegas[m], rel_tol=1e-15):
+                        raise NotAffineError(
+                            f"mode `{form.name}`: two forcing frequencies ({omegas[m]!r} and {w!r} rad/s); "
+                            "the exact integrator handles one"
+                        )
+        vals = self._const.copy()
+        if self._fn is not None:
+            vals[self._dyn] = self._fn(v + signs)
+        return [_assemble(form, vals, omegas[m]) for m, form in enumerate(self.forms)]
+
+
+def _assemble(form: _ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
+    """``(omega, d, a, q, M, P, Q, W)`` of one mode from the coefficient values."""
+    where = f"mode `{form.name}`"
+    d, a, q = form.d, form.a, form.q
+    n = len(form.names)
+    nf = 2 if omega is not None else 0
+    nu = n + nf
+    F, G = vals[form.F], vals[form.G]
+    # u over z = [y_d, S, C, 1]: differential rows are z, slave rows from the algebraic equations.
+    nz = d.size + nf + 1
+    Pu = np.zeros((nu + 1, nz))
+    Pu[d, np.arange(d.size)] = 1.0
+    Pu[n + np.arange(nf), d.size + np.arange(nf)] = 1.0
+    Pu[nu, nz - 1] = 1.0
+    if a.size:
+        Ga = G[:, a]
+        if not _cond1(Ga) < 1e14:
+            raise NotAffineError(f"{where}: the algebraic equations are singular in the slave variables")
+        rest = Pu.copy()
+        rest[a, :] = 0.0
+        Pu[a, :] = -np.linalg.solve(Ga, G @ rest)
+    M = np.zeros((nz, nz))
+    M[: d.size] = F @ Pu
+    if omega is not None:
+        k = d.size
+        M[k, k + 1] = omega  # S' = w C
+        M[k + 1, k] = -omega  # C' = -w S
+    Q = np.array([Pu.T @ vals[Qj] @ Pu for Qj in form.Qu]).reshape(q.size, nz, nz)
+    W = vals[form.Wu] @ Pu
+    return omega, d, a, q, M, Pu[:n], Q, W
+
+
+def _mode_equations(cm: CompiledMode) -> tuple:
+    return (
+        cm.name,
+        cm.names,
+        [int(i) for i in cm.diff_idx],
+        [int(i) for i in cm.alg_idx],
+        cm.f_expr,
+        cm.g_expr,
+        [(g.name, g.expr) for g in cm.guards],
+    )
+
+
+def affine_mode(cm: CompiledMode, quadratures: tuple[str, ...]) -> AffineMode:
+    """Analyse one compiled mode (parameters folded) as an exact linear flow (see the module notes).
+
+    Raises
+    ------
+    NotAffineError
+        Naming the mode, the equation and the first non-affine term.
+    """
+    (flat,) = AffineAnalysis([_mode_equations(cm)], quadratures, ()).evaluate(())
+    return AffineMode(cm, *flat)
+
+
+def system_analysis(system) -> AffineAnalysis:
+    """The parametric affine analysis of every mode of ``system``, done once and kept with it.
+
+    Analysed on the system's own expressions with the parameters kept as
+    symbols. Raises NotAffineError (also on later calls) if a mode is not
+    affine for every parameter value.
+    """
+    cached = system.cache.get("affine_analysis", lambda: _analyse(system))
+    if isinstance(cached, NotAffineError):
+        raise NotAffineError(str(cached))
+    return cached
+
+
+def _analyse(system) -> AffineAnalysis | NotAffineError:
+    """The analysis of :func:`system_analysis` (or the error that refuses it)."""
+    names = tuple(system.variable_names)
+    modes = []
+    for mode in system.modes:
+        data = system.parsed.modes[mode.name]
+        derivs, alg = data["derivatives"], data["algebraic"]
+        guards = [
+            (tr.name, td["guard"])
+            for tr, td in zip(system.transitions, system.parsed.transitions, strict=True)
+            if tr.source == mode.name
+        ]
+        modes.append(
+            (
+                mode.name,
+                names,
+                [i for i, nm in enumerate(names) if nm in derivs],
+                [i for i, nm in enumerate(names) if nm in alg],
+                {i: derivs[nm] for i, nm in enumerate(names) if nm in derivs},
+                {i: alg[nm] for i, nm in enumerate(names) if nm in alg},
+                guards,
+            )
+        )
+    try:
+        return AffineAnalysis(modes, tuple(system.quadratures), tuple(system.parameter_names))
+    except NotAffineError as exc:
+        return exc  # kept: every later call raises it again
+
+
+def affine_flows(system, params: Mapping[str, float], cms=None) -> list[AffineMode]:
+    """Every mode of ``system`` as an exact flow at ``params`` from the parametric analysis (microseconds).
+
+    ``cms`` gives the compiled modes to attach (None: flows only).
+    """
+    an = system_analysis(system)
+    flat = an.evaluate([params[p] for p in an.params])
+    out = [AffineMode(None if cms is None else cms[k], *f) for k, f in enumerate(flat)]
+    _check_one_frequency(out)
+    return out
+
+
+def _check_one_frequency(modes: list[AffineMode]) -> None:
+    freqs = {m.omega for m in modes if m.omega is not None}
+    if len(freqs) > 1:
+        raise NotAffineError(f"modes are forced at different frequencies: {sorted(freqs)}")
+
+
+def affine_system(cs: CompiledSystem) -> list[AffineMode]:
+    """Every mode of a compiled system as an exact flow, all with one forcing frequency.
+
+    From the system's parametric analysis (:func:`system_analysis`); a system
+    affine only at these parameter values (a non-affine term with a zero
+    coefficient) is analysed on its folded expressions.
+
+    Raises
+    ------
+    NotAffineError
+        For the first mode that is not affine, or modes forced at different frequencies.
+    """
+    if cs.free:
+        raise NotAffineError(
+            "the exact integrator does not differentiate by a parameter in the state; "
+            f"free parameters: {', '.join(cs.free)}"
+        )
+    try:
+        return affine_flows(cs.system, cs.params, cs.modes)
+    except NotAffineError:
+        pass
+    quads = tuple(cs.system.quadratures)
+    out = [affine_mode(cm, quads) for cm in cs.modes]
+    _check_one_frequency(out)
+    return out
+
+
+def exact_flows(cs: CompiledSystem) -> list[AffineMode]:
+    """Every mode of ``cs`` as an exact affine flow (:func:`affine_system`), analysed once per
+    parameter set (kept in ``cs.derived`` until its parameters change).
+
+    Raises
+    ------
+    NotAffineError
+        Naming the model, the first mode and the term that is not affine.
+    """
+    hit = cs.derived.get("exact_flows")
+    if hit is None:
+        try:
+            hit = affine_system(cs)
+        except ValueError as exc:
+            raise type(exc)(f"model `{cs.system.name}`: {exc}") from None
+        cs.derived["exact_flows"] = hit
+    return hit

@@ -1,0 +1,193 @@
+"""The stroboscopic map of a forced system and its derivatives: :class:`Shooter`.
+
+``P: y(t0) -> y(t0 + T)`` over one forcing period is an event-driven run
+(:mod:`hybrid.engine`); its Jacobian, the monodromy matrix, comes from the variational
+equations of each mode and the saltation matrix of each switch (:mod:`hybrid.engine.variational`),
+optionally with one parameter appended (for continuation). :func:`compiled` keeps a model's
+recently compiled systems for reuse.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from ..core.errors import BudgetExceeded, ModelError, ParameterOutOfDomain
+from ..core.options import SolverOptions
+from ..engine.simulate import run_compiled
+from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
+from ..engine.variational import Sensitivity
+from ..integrators.registry import integrator
+from ..model.codegen import compile_scalar
+from ..model.compiled import CompiledSystem, lend
+from ..model.expr import diff
+from ..model.system import HybridSystem
+
+__all__ = ["Shooter"]
+
+
+class Shooter:
+    """The stroboscopic map of one system and its derivatives (state and, optionally, one parameter).
+
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping
+        Parameter values (checked).
+    options : SolverOptions
+    free : str, optional
+        A parameter to differentiate the map by (for continuation).
+
+    Attributes
+    ----------
+    integrator : hybrid.integrators.base.Integrator
+        The integrator of ``options.integrator``.
+    """
+
+    def __init__(
+        self,
+        system: HybridSystem,
+        params: Mapping[str, float],
+        options: SolverOptions,
+        free: str | None = None,
+    ):
+        self.system = system
+        self.options = options
+        self.integrator = integrator(options.integrator)
+        self.free = free
+        self.names = system.variable_names
+        self.set_params(params)
+        self.integrator.check(self.cs)  # refused before any run (e.g. not affine: NotAffineError)
+        # Without a free parameter the variational runs use the same compiled system.
+        self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
+        T = self.period
+        self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
+        nb = len(self.names)
+        self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
+        self._gauge = _gauge_functions(system)
+        pe = system.parsed.period
+        self._dT = diff(pe, free) if free else None
+        self.nfev = 0
+
+    def set_params(self, params: Mapping[str, float]) -> None:
+        cs = getattr(self, "cs", None)
+        try:
+            self.params = self.system.parameter_values(params)
+        except ValueError as exc:
+            if cs is None:
+                raise  # the caller's input
+            raise ParameterOutOfDomain(str(exc)) from None
+        if (
+            cs is not None
+            and cs.runtime
+            and all(v == cs.params[k] for k, v in self.params.items() if k not in cs.runtime)
+        ):
+            cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
+        else:
+            self.cs = self._compiled()
+        self.period = self.cs.period
+        if self.period is None:
+            raise ModelError(
+                f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
+            )
+        if self.free is not None:
+            self.ext_values = np.array([self.params[self.free]])
+        else:
+            self.ext_values = np.zeros(0)
+
+    def _compiled(self) -> CompiledSystem:
+        """A compiled system at ``self.params`` of this shooter's own (the one it had is released)."""
+        release = getattr(self, "_release", None)
+        if release is not None:
+            release()
+        if self.integrator.runtime_parameters:
+            # every parameter read at call time: the exact flows come from the affine analysis
+            cs, self._release = lend(self.system, self.params, self, every_parameter=True)
+        elif self.free is not None:
+            # the free parameter is read at run time (set_runtime); private to this shooter
+            cs, self._release = CompiledSystem(self.system, self.params, runtime=(self.free,)), None
+        else:
+            cs, self._release = lend(self.system, self.params, self)
+        return cs
+
+    @property
+    def noise_rtol(self) -> float:
+        """Relative accuracy of one run of the map: ``rtol`` (IDA), rounding (the exact integrator)."""
+        return self.integrator.noise_rtol(self.options)
+
+    def dT(self) -> float:
+        """d(period)/d(free parameter)."""
+        return float(compile_scalar(self._dT, {}, self.params)(())) if self._dT is not None else 0.0
+
+    # ------------------------------------------------------------------
+    def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
+        """One period from ``(t0, y0, mode0)`` (quadratures reset to 0).
+
+        With ``samples`` the run is made without them and returned as a :class:`DeferredTrajectory`: the
+        sampled run (about twice as costly) is made only if its samples are used, e.g. for an
+        accepted orbit, not at every iteration of a corrector.
+
+        A run that exhausts its budget raises :class:`hybrid.core.errors.BudgetExceeded`.
+        """
+        tr = self._run(y0, mode0, t0, None)
+        if samples and tr.success:
+            return DeferredTrajectory(tr, lambda: self._run(y0, mode0, t0, samples))
+        return tr
+
+    def _run(self, y0: np.ndarray, mode0: str, t0: float, samples: int | None) -> Trajectory:
+        y = np.array(y0, dtype=float)
+        for q in self.system.quadratures:
+            y[self.names.index(q)] = 0.0
+        T = self.period
+        grid = np.linspace(t0, t0 + T, samples + 1) if samples else np.array([t0, t0 + T])
+        # an unsampled run is an iterate of the map: its states and switches are read, not its outputs
+        tr = run_compiled(
+            self.cs,
+            self.options,
+            t0,
+            t0 + T,
+            y,
+            self.cs.mode_id(mode0),
+            grid,
+            bool(samples),
+            outputs=bool(samples),
+        )
+        self.nfev += tr.nfev
+        if tr.status in (Status.STEP_LIMIT, Status.TIME_LIMIT):
+            raise BudgetExceeded(tr.reason, tr.message)
+        return tr
+
+    def monodromy(self, tr: Trajectory) -> np.ndarray:
+        """Fundamental matrix over one period along ``tr`` (sensitivity variables, free parameter last)."""
+        base = tr.base if isinstance(tr, DeferredTrajectory) else tr
+        return self.sens.fundamental(
+            base.t_start, base.y[0], base.mode_start, base.t_final, base.events, self.ext_values
+        )
+
+    def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
+        """The model's gauge at state ``y`` and its gradient in the state (None without a gauge)."""
+        if self._gauge is None:
+            return None
+        fn, grad = self._gauge
+        v = [0.0, *y.tolist(), *(self.params[p.name] for p in self.system.parameters)]
+        return float(fn(v)), np.array([g(v) for g in grad])
+
+
+def _gauge_functions(system: HybridSystem) -> tuple[Callable, list[Callable]] | None:
+    """The model's ``[orbit] gauge`` and its gradient, compiled once per system with the parameters
+    read at call time (``v = [t, state..., parameters...]``); None without a gauge."""
+    gauge = system.parsed.gauge
+    if gauge is None:
+        return None
+
+    def make() -> tuple[Callable, list[Callable]]:
+        names = system.variable_names
+        slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
+        slots.update({p.name: len(names) + 1 + j for j, p in enumerate(system.parameters)})
+        return (
+            compile_scalar(gauge, slots, {}),
+            [compile_scalar(diff(gauge, nm), slots, {}) for nm in names],
+        )
+
+    return system.cache.get("gauge_functions", make)

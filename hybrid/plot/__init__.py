@@ -1,0 +1,2 @@
+"""Layer 8: figures (matplotlib): trajectories, orbits, frequency-response curves, continuation
+branches, sweep charts."""

@@ -1,0 +1,1 @@
+"""Layer 7: parameter studies (sweeps) and their files."""

@@ -1,0 +1,152 @@
+"""The import graph of ``hybrid/`` (issue 21): subpackages in layers, dependencies one way only.
+
+Read from the source with :mod:`ast` (nothing is imported): every ``import`` of a module of
+``hybrid`` is an edge. The test fails on
+
+* a cycle among modules;
+* an import of a subpackage to the right of the importer in :data:`LAYERS` (a lower layer
+  importing a higher one);
+* a private name (``_x``) imported from another subpackage;
+* an import of a ``hybrid`` module inside a function (the usual way to dodge a cycle), except
+  the figures of :mod:`hybrid.plot` imported by a subcommand of :mod:`hybrid.cli` when it draws
+  one (:data:`LAZY`: matplotlib costs a third of a second of every command's start-up).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1] / "hybrid"
+
+#: Subpackages from the bottom layer up; each may import only those before it (and itself).
+LAYERS = ("core", "model", "integrators", "engine", "orbits", "continuation", "studies", "plot", "cli")
+
+
+#: Imports inside functions allowed, as (importer prefix, imported prefix): loaded when needed.
+LAZY = (("hybrid.cli.", "hybrid.plot."),)
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _resolve(module: str, node: ast.ImportFrom, is_package: bool) -> str:
+    if node.level == 0:
+        return node.module or ""
+    base = module.split(".")
+    if not is_package:
+        base = base[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def _graph() -> dict[str, list[tuple[str, tuple[str, ...], bool, int]]]:
+    """module -> [(imported module, names, inside a function, line)]."""
+    graph: dict[str, list] = {}
+    modules = {_module_name(p): p for p in ROOT.rglob("*.py")}
+    for name, path in modules.items():
+        tree = ast.parse(path.read_text(), str(path))
+        edges = []
+        func_lines: set[int] = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                for inner in ast.walk(node):
+                    if isinstance(inner, ast.Import | ast.ImportFrom):
+                        func_lines.add(inner.lineno)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                target = _resolve(name, node, path.name == "__init__.py")
+                if not target.startswith("hybrid"):
+                    continue
+                names = tuple(a.name for a in node.names)
+                # "from . import x" / "from .pkg import mod": the imported names may be modules
+                subs = [f"{target}.{n}" for n in names if f"{target}.{n}" in modules]
+                for t in subs or [target]:
+                    edges.append((t, names, node.lineno in func_lines, node.lineno))
+            elif isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.startswith("hybrid"):
+                        edges.append((a.name, (), node.lineno in func_lines, node.lineno))
+        graph[name] = edges
+    return graph
+
+
+def _layer(module: str) -> int | None:
+    parts = module.split(".")
+    if len(parts) < 2 or parts[1] not in LAYERS:
+        return None  # the package root: it re-exports the public API of every layer
+    return LAYERS.index(parts[1])
+
+
+def test_every_subpackage_is_in_a_layer():
+    found = {p.name for p in ROOT.iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert found == set(LAYERS)
+
+
+def test_no_module_left_at_the_top_level():
+    top = sorted(p.name for p in ROOT.glob("*.py"))
+    assert top == ["__init__.py"]
+
+
+def test_no_import_cycle():
+    graph = _graph()
+    state: dict[str, int] = {}
+    cycles: list[list[str]] = []
+
+    def visit(m: str, path: list[str]) -> None:
+        state[m] = 1
+        path.append(m)
+        for t, *_ in graph.get(m, []):
+            if t not in graph or t == "hybrid":
+                continue
+            if state.get(t) == 1:
+                cycles.append(path[path.index(t) :] + [t])
+            elif t not in state:
+                visit(t, path)
+        path.pop()
+        state[m] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [])
+    assert cycles == []
+
+
+def test_layers_point_one_way():
+    bad = []
+    for m, edges in _graph().items():
+        lm = _layer(m)
+        for t, _, _, line in edges:
+            lt = _layer(t)
+            if t == "hybrid" and m != "hybrid":
+                bad.append(f"{m}:{line} imports the package root")
+            elif lm is not None and lt is not None and lt > lm:
+                bad.append(f"{m}:{line} -> {t} (layer {LAYERS[lm]} imports {LAYERS[lt]})")
+    assert bad == []
+
+
+def test_no_private_name_across_subpackages():
+    bad = []
+    for m, edges in _graph().items():
+        for t, names, _, line in edges:
+            if _layer(t) is None or _layer(m) == _layer(t):
+                continue
+            private = [n for n in names if n.startswith("_") and not n.startswith("__")]
+            if private or t.rsplit(".", 1)[-1].startswith("_"):
+                bad.append(f"{m}:{line} imports {', '.join(private) or t} from {t}")
+    assert bad == []
+
+
+def test_no_import_of_hybrid_inside_a_function():
+    bad = [
+        f"{m}:{line} -> {t}"
+        for m, edges in _graph().items()
+        for t, _, inner, line in edges
+        if inner and not any(m.startswith(a) and t.startswith(b) for a, b in LAZY)
+    ]
+    assert bad == []
