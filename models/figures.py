@@ -3,7 +3,7 @@
 ``hybrid reproduce`` (:mod:`hybrid_models.reproduce`) runs the jobs of the figures asked for
 (each job once, in parallel) and calls each builder with the results; the builder returns a
 :class:`FigureResult`: the rows written to the figure's CSV, the key numbers written to its JSON
-and to ``docs/reproduction.md``, the matplotlib figure, and a verdict computed from the numbers on
+and to the report (``docs/reproduction.md``), the matplotlib figure, and a verdict computed from the numbers on
 what the paper's text says the figure shows.
 
 Figures: 3a, 3b (absorber) and 4a, 4b (isolator): structural-change limit against the stick

@@ -6,6 +6,12 @@ adds the subcommand to ``hybrid``'s parser. The jobs of every figure asked for
 progress bar on stderr; then the IDA cross-checks of the figures computed with the exact
 integrator; then each figure is built and written. Only results go to stdout.
 
+Results go to ``out/reproduction/`` and the report to ``out/reproduction.md`` unless told
+otherwise (``--out``, ``--report``). ``--docs`` regenerates the committed report instead
+(``docs/reproduction/`` and ``docs/reproduction.md``, run from the checkout's root), with the
+notes written by hand in ``docs/reproduction_notes.md`` merged in; no run writes that file. The
+report lists every figure whose JSON is in the folder, so regenerating one figure keeps the others.
+
 References
 ----------
 .. [1] Aramendiz et al., "Sequential friction-spring dampers" (``shared/seed``).
@@ -25,7 +31,14 @@ from hybrid import ProgressBar
 from hybrid.cli.common import writable_folder
 from hybrid.engine.io import to_json  # one JSON convention (non-finite floats as null) for every output
 
-__all__ = ["register", "run", "parse_figures", "parse_workers", "output_folder", "write_csv"]
+__all__ = ["register", "run", "parse_figures", "parse_workers", "output_folder", "write_csv", "targets"]
+
+#: Where a run writes unless told otherwise (relative to the working directory; `out/` is git-ignored).
+DEFAULT_OUT = Path("out/reproduction")
+#: The committed report's folder (``--docs``), relative to a checkout's root.
+DOCS_OUT = Path("docs/reproduction")
+#: The notes written by hand for the committed report.
+NOTES = Path("docs/reproduction_notes.md")
 
 
 def register(subparsers) -> None:
@@ -38,7 +51,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "reproduce", help="regenerate the paper's figures (PNG, CSV, JSON) and a report"
     )
-    p.add_argument("--out", default="docs/reproduction", help="output folder (default docs/reproduction)")
+    p.add_argument("--out", default=None, help=f"output folder (default {DEFAULT_OUT})")
     p.add_argument(
         "--figure",
         nargs="+",
@@ -54,6 +67,18 @@ def register(subparsers) -> None:
         help="exact (default: matrix exponentials, both dampers are affine; peaks cross-checked with IDA) or ida",
     )
     p.add_argument("--report", default=None, help="Markdown report (default: OUT.md beside the folder)")
+    p.add_argument(
+        "--docs",
+        action="store_true",
+        help=f"regenerate the committed report: {DOCS_OUT}/ and {DOCS_OUT}.md, with the notes written by "
+        f"hand in {NOTES} (run from the checkout's root; not with --out or --report)",
+    )
+    p.add_argument(
+        "--notes",
+        default=None,
+        metavar="MD",
+        help=f"notes written by hand to merge into the report (default with --docs: {NOTES}; read, never written)",
+    )
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
     )
@@ -108,6 +133,55 @@ def output_folder(text: str) -> Path:
     if not text.strip():
         raise ValueError("`--out` needs a folder path, got an empty string")
     return writable_folder(Path(text))
+
+
+def targets(args) -> tuple[Path, Path, Path | None]:
+    """The output folder, the report and the notes file of a run (see :func:`register`).
+
+    Raises
+    ------
+    ValueError
+        ``--docs`` with ``--out`` or ``--report``, or away from a checkout's root; a notes file
+        that does not exist; a report path that is a folder.
+    """
+    if args.docs:
+        if args.out is not None or args.report is not None:
+            raise ValueError(
+                "`--docs` writes docs/reproduction/ and docs/reproduction.md: give no `--out` or `--report` with it"
+            )
+        if not NOTES.is_file():
+            raise ValueError(
+                f"`--docs` regenerates the committed report and is run from the checkout's root, where {NOTES} "
+                f"is; not found under {Path.cwd()}"
+            )
+        out, report = output_folder(str(DOCS_OUT)), DOCS_OUT.with_suffix(".md")
+        notes = Path(args.notes) if args.notes else NOTES
+    else:
+        out = output_folder(args.out if args.out is not None else str(DEFAULT_OUT))
+        report = Path(args.report) if args.report else out.with_suffix(".md")
+        notes = Path(args.notes) if args.notes else None
+    if notes is not None and not notes.is_file():
+        raise ValueError(f"`--notes {notes}`: no such file")
+    if report.exists() and report.is_dir():
+        raise ValueError(f"`--report {report}` is a folder")
+    return out, report, notes
+
+
+def _earlier_figures(out: Path, made: list[str]) -> list[dict]:
+    """The JSON of every figure in ``out`` not made by this run (the report lists them too)."""
+    import json
+
+    from .figures import FIGURES
+
+    found = []
+    for k in FIGURES:
+        f = out / f"fig{k}.json"
+        if k not in made and f.is_file():
+            try:
+                found.append(json.loads(f.read_text()))
+            except ValueError:
+                continue  # not ours, or half written: left out of the report
+    return found
 
 
 def _timed(job):
@@ -169,10 +243,7 @@ def run(args) -> int:
     """The ``reproduce`` subcommand (see :func:`register`)."""
     ids = parse_figures(args.figure)
     workers = parse_workers(args.workers)
-    out = output_folder(args.out)
-    report = Path(args.report) if args.report else out.with_suffix(".md")
-    if report.exists() and report.is_dir():
-        raise ValueError(f"`--report {report}` is a folder")
+    out, report, notes_path = targets(args)
 
     from .figures import FIGURES
 
@@ -241,8 +312,13 @@ def run(args) -> int:
         "date_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }
     (out / "reproduce.json").write_text(to_json(meta) + "\n")
-    from .report import write_report
+    from .figures import FIGURES
+    from .report import read_notes, write_report
 
-    write_report(report, out, meta, summary)
+    notes = read_notes(notes_path) if notes_path is not None else None
+    if notes_path is not None:
+        meta = {**meta, "notes": str(notes_path)}
+    every = {f["figure"]: f for f in _earlier_figures(out, ids) + summary}
+    write_report(report, out, meta, [every[k] for k in FIGURES if k in every], notes)
     print(f"{len(ids)} figures in {total_wall:.1f} s ({workers} workers); report {report}")
     return 0
