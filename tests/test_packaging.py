@@ -63,3 +63,45 @@ def test_import_models_outside_the_checkout_is_not_ours(tmp_path):
     ).stdout.strip()
     assert out == "none" or not Path(out).resolve().is_relative_to(ROOT), out
     assert importlib.util.find_spec("hybrid_models") is not None
+
+
+# --- issue 24, item 2: install advice that works, checked against pyproject.toml
+
+INSTALL = re.compile(r"pip install (?:-[-\w]+ )*(['\"]?)([^'\"\s`]+)\1")
+
+
+def _install_advice():
+    """``(file, position, target)`` of every ``pip install TARGET`` the project tells a user."""
+    files = [ROOT / "README.md", *(ROOT / "docs").rglob("*.md"), *(ROOT / "docs").rglob("*.rst")]
+    files += [p for d in ("hybrid", "models", "examples", "benchmarks") for p in (ROOT / d).rglob("*.py")]
+    files += [ROOT / ".ci" / "run"]
+    out = []
+    for f in files:
+        text = f.read_text()
+        out += [(f.relative_to(ROOT), m.start(), m.group(2), text) for m in INSTALL.finditer(text)]
+    return out
+
+
+def test_every_install_command_names_this_project_or_a_declared_requirement():
+    project = PYPROJECT["project"]
+    extras = project["optional-dependencies"]
+    requirements = set(project["dependencies"]) | {r for reqs in extras.values() for r in reqs}
+    advice = _install_advice()
+    assert len(advice) >= 5
+    for where, pos, target, text in advice:
+        name, _, rest = target.partition("[")
+        wanted = set(rest.rstrip("]").split(",")) - {""}
+        if name == ".":  # from a checkout
+            assert wanted <= set(extras), (where, target)
+        elif name == project["name"]:  # from the index: only where the text says it is not there yet
+            assert wanted <= set(extras), (where, target)
+            assert "not published" in text[max(0, pos - 300) : pos], (where, target)
+        else:
+            assert target in requirements, (where, target, "not a requirement declared in pyproject.toml")
+
+
+def test_the_licence_is_the_one_pyproject_names():
+    assert PYPROJECT["project"]["license"] == {"text": "BSD-3-Clause"}
+    text = (ROOT / "LICENSE").read_text()
+    assert text.startswith("BSD 3-Clause License")
+    assert "Neither the name of the copyright holder" in text

@@ -166,7 +166,8 @@ def dask_client(address: str):
         from distributed import Client
     except ImportError:
         raise UsageError(
-            "`--scheduler` needs Dask's distributed scheduler: pip install 'hybrid-friction[dask]'"
+            "`--scheduler` needs Dask's distributed scheduler, which is not installed here: "
+            "pip install 'dask[distributed]>=2024.1' (from a checkout of hybrid: pip install '.[dask]')"
         ) from None
     try:
         return Client(address, timeout=10)
