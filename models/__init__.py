@@ -1,4 +1,4 @@
-"""Built-in models: the paper's two sequential friction-spring dampers and a Coulomb oscillator.
+"""Built-in models: the paper's two sequential friction-spring dampers [1]_, a Coulomb oscillator, and belts.
 
 Each model is a data file (``*.toml`` beside this module) read by
 :func:`hybrid.load_system`; the functions below return them, cached.

@@ -1,4 +1,4 @@
-"""Curves drawn over a computed frequency-response curve (``hybrid frc``), from Appendix A of [1].
+"""Curves drawn over a computed frequency-response curve (``hybrid frc``), from Appendix A of [1]_.
 
 Each function has the signature of the ``hybrid.frc_overlays`` entry points
 (registered in ``pyproject.toml`` under the model's name)::

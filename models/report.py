@@ -32,6 +32,19 @@ def _fmt(v) -> str:
     return str(v).replace("|", "/")
 
 
+def _heading(f: dict) -> str:
+    """A figure's section heading."""
+    return f"Fig. {f['figure']}: {f['title'].split(': ', 1)[-1]}"
+
+
+def _anchor(heading: str) -> str:
+    """The anchor GitHub (and MyST, ``github`` slugs) gives a heading: lower case, spaces to ``-``,
+    other punctuation dropped."""
+    import re
+
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
 def _flat(d: dict, prefix: str = "") -> list[tuple[str, object]]:
     out = []
     for k, v in d.items():
@@ -222,7 +235,7 @@ def write_report(
             else f"{ida['max_relative_difference']:.2e}"
         )
         lines.append(
-            f"| [{f['figure']}](#fig-{f['figure'].lower()}) | {f['integrator']} | {f['jobs']} | "
+            f"| [{f['figure']}](#{_anchor(_heading(f))}) | {f['integrator']} | {f['jobs']} | "
             f"{f['compute_seconds']:.1f} | {d} | {f['verdict'].split(':')[0]} |"
         )
     lines += [
@@ -237,8 +250,7 @@ def write_report(
         lines += [notes["design-values"], ""]
     for f in figures:
         lines += [
-            f'<a id="fig-{f["figure"].lower()}"></a>',
-            f"## Fig. {f['figure']}: {f['title'].split(': ', 1)[-1]}",
+            f"## {_heading(f)}",
             "",
             f"![Fig. {f['figure']}]({rel}/fig{f['figure']}.png)",
             "",

@@ -132,7 +132,7 @@ def frc_text(fr, preset: str | None) -> str:
             a = b.amplitude(name)
             i = int(np.argmax(a))
             lines.append(f"    max |{name}| = {a[i]:.6g} at {par} = {p[i]:.6g}")
-    for row in fr.special_rows():
+    for row in fr.special_rows:
         where = (
             f"{par} = {row[par]:.10g} (located, +-{row['accuracy']:.2g})"
             if row["status"] == "located"
@@ -240,7 +240,7 @@ def cmd_frc(args) -> int:
     from ..plot.frc import zoom_windows
 
     files = [csv_path]
-    special = fr.special_rows()
+    special = fr.special_rows
     files.append(
         write_rows_csv(
             special,

@@ -122,10 +122,12 @@ class FrequencyResponse:
 
     @property
     def branches(self) -> list[Branch]:
+        """Every branch of every piece, in order of the range."""
         return [b for pc in self.pieces for b in pc.branches]
 
     @property
     def gaps(self) -> list[tuple[float, float]]:
+        """The parts of the range where no orbit was computed, ``(lo, hi)`` each."""
         return [g for pc in self.pieces for g in pc.gaps]
 
     def conclude(self) -> None:
@@ -153,6 +155,7 @@ class FrequencyResponse:
             out.append("time limit reached (hybrid.time_limit; CLI --max-time): the gaps were not computed")
         return out
 
+    @property
     def rows(self) -> list[dict]:
         """One dict per orbit of every branch (``branch`` index first), in branch order."""
         rows = []
@@ -161,8 +164,9 @@ class FrequencyResponse:
                 rows.append({"branch": k, **row})
         return rows
 
+    @property
     def special_rows(self) -> list[dict]:
-        """One dict per special point; ``row`` is its index in :meth:`rows`."""
+        """One dict per special point; ``row`` is its index in :attr:`rows`."""
         rows = []
         offset = 0
         for k, b in enumerate(self.branches):
