@@ -25,7 +25,7 @@ res = hybrid.sweep(
     options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"),
     resume=(out / "manifest.json").exists(),
 )
-for index, point in sorted(res.points.items()):
+for _, point in sorted(res.points.items()):
     peak = f"{point['peak']:.6g} m" if point["status"] == "bounded" else "none (grows without bound)"
     print(f"R = {point['values']['R']:4.1f} N: peak of x1 {peak} ({point['status']})")
 files, notes = write_charts(res, out)
