@@ -30,7 +30,14 @@ coulomb = HybridSystem(
 )
 params = {"m": 1.0, "k": 1.0, "R": 0.1}  # kg, N/m, N
 x0 = 1.0  # m
-tr = simulate(coulomb, params, (0.0, 3.5 * np.pi), {"x": x0, "v": 0.0}, "left", options=SolverOptions(rtol=1e-10, atol=1e-12))
+tr = simulate(
+    coulomb,
+    params,
+    (0.0, 3.5 * np.pi),
+    {"x": x0, "v": 0.0},
+    "left",
+    options=SolverOptions(rtol=1e-10, atol=1e-12),
+)
 print(tr)
 turns = [ev for ev in tr.events if ev.guard in ("turn+", "turn-")]
 dk = 2 * params["R"] / params["k"]

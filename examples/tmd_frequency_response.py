@@ -19,7 +19,9 @@ out.mkdir(parents=True, exist_ok=True)
 tmd = hybrid.load_system(Path(__file__).with_name("tmd.toml"))
 params = tmd.preset("standard")
 lo, hi = hybrid.continuation.frc.default_range(tmd, params)  # rad/s
-fr = hybrid.frequency_response(tmd, params, (lo, hi), options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"))
+fr = hybrid.frequency_response(
+    tmd, params, (lo, hi), options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
+)
 print(fr)
 for row in fr.special_rows:
     print(f"  {row['kind']:12s} at Omega = {row['Omega']:.6f} rad/s ({row['status']})")
