@@ -1000,8 +1000,14 @@ def network_model(net: Network) -> dict:
             "velocity": f"w_{friction[0].name}",
             "shade_modes": first_sticks,
         }
+    if friction:
+        # the linear references drawn over a frequency response: every contact stuck, every one sliding
+        plot["linear_references"] = {
+            "linear: all contacts stuck": all_stick,
+            "linear: all contacts sliding": _mode_name(("slip+",) * len(friction)),
+        }
     if net.plot is not None:
-        plot = dict(net.plot)
+        plot = {**({"linear_references": plot["linear_references"]} if friction else {}), **net.plot}
     orbit: dict = {}
     if friction:
         e = friction[0]

@@ -278,3 +278,20 @@ def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
     assert wo[0] == 1.1715
     assert wo[-1] == 1.1735
     assert np.allclose([float(r[limit_col]) for r in overlays], limit_amplitude("absorber", p, wo))
+    # the linear references (issue 24): the engine's linearisation of the modes the model names,
+    # against closed forms: stuck = Eqs. A.1-A.2; sliding = two masses joined by c2 and c3 in series
+    stuck_a = np.abs(stick_amplitudes(p, wo))
+    for i, x in enumerate(("x1", "x2")):
+        got = np.array([float(r[f"linear: contact stuck: {x}"]) for r in overlays])
+        assert np.max(np.abs(got / stuck_a[i] - 1)) < 1e-10
+        assert np.allclose(
+            got, [float(r[f"linear stick system (Eqs. A.1-A.2): {x}"]) for r in overlays], rtol=1e-10
+        )
+    c2s = p["c2"] * p["c3"] / (p["c2"] + p["c3"])
+    K = np.array([[p["c1"] + c2s, -c2s], [-c2s, c2s]])
+    M = np.diag([p["m1"], p["m2"]])
+    slide = np.abs([np.linalg.solve(K - om**2 * M, [p["F"], 0.0]) for om in wo])
+    for i, x in enumerate(("x1", "x2")):
+        got = np.array([float(r[f"linear: contact sliding: {x}"]) for r in overlays])
+        assert np.max(np.abs(got / slide[:, i] - 1)) < 1e-10
+    assert d["linear_references"] == {"linear: contact stuck": "stick", "linear: contact sliding": "slip+"}

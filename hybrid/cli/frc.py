@@ -17,10 +17,12 @@ import numpy as np
 from ..continuation.branch import forcing_parameter, orbit_row
 from ..continuation.frc import default_range, frequency_response
 from ..core.budget import time_limit
+from ..core.errors import HybridError
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
 from ..engine.io import csv_cell, to_json, write_rows_csv
+from ..model.linear import linear_response
 from ..model.plot_hints import plot_hints
 from ..model.registry import resolve_model
 from ..model.system import HybridSystem
@@ -101,6 +103,28 @@ def frc_overlays(system: HybridSystem, params: dict[str, float], omega: np.ndarr
     except Exception as exc:  # model code: report, do not stop the run
         info(f"hybrid: warning: overlays of `{system.name}` failed ({type(exc).__name__}: {exc}); none drawn")
         return {}
+
+
+def linear_references(
+    system: HybridSystem, params: dict[str, float], parameter: str, grid: np.ndarray
+) -> dict:
+    """The linear references of a model over ``grid``: ``{label: {coordinate: max |x|}}``.
+
+    Each is a mode named in the model's ``linear_references`` plot hint (a network file: every
+    contact stuck, every contact sliding; by default the initial mode), linearised at rest by
+    :func:`hybrid.model.linear.linear_response`. One that cannot be computed is reported on
+    stderr and left out.
+    """
+    coords = list(plot_hints(system)["displacements"])
+    out = {}
+    for label, mode in plot_hints(system)["linear_references"].items():
+        try:
+            amps = linear_response(system, params, mode, parameter, grid)
+        except (HybridError, np.linalg.LinAlgError) as exc:
+            info(f"hybrid: warning: the linear reference `{label}` (mode `{mode}`) was not computed: {exc}")
+            continue
+        out[str(label)] = {c: amps[c] for c in coords if c in amps}
+    return out
 
 
 def frc_text(fr, preset: str | None) -> str:
@@ -250,15 +274,16 @@ def cmd_frc(args) -> int:
             else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
         )
     )
-    overlays, grid = {}, None
+    overlays, references, grid = {}, {}, None
     if par == forcing:  # the models' overlays are curves over the forcing frequency
         zooms = zoom_windows(fr)
         grid = np.unique(
             np.concatenate([np.linspace(lo, hi, 2001)] + [np.linspace(a, b, 801) for a, b, _ in zooms])
         )
         overlays = frc_overlays(system, params, grid)
+        references = linear_references(system, params, par, grid)
         ov_rows = [{par: float(w)} for w in grid]
-        for curve, coords in overlays.items():
+        for curve, coords in {**overlays, **references}.items():
             for name, values in coords.items():
                 for row, v in zip(ov_rows, values, strict=True):
                     row[f"{curve}: {name}"] = float(v)
@@ -266,7 +291,7 @@ def cmd_frc(args) -> int:
     if not args.no_plot:
         from ..plot.frc import plot_frc
 
-        files.append(plot_frc(fr, out / "frc.png", overlays=overlays, grid=grid))
+        files.append(plot_frc(fr, out / "frc.png", overlays=overlays, grid=grid, references=references))
     summary = {
         "model": system.name,
         "preset": preset,
@@ -289,6 +314,7 @@ def cmd_frc(args) -> int:
         "gaps": [list(g) for g in fr.gaps],
         "complete": fr.status == ResponseStatus.COMPLETE,
         "overlays": list(overlays),
+        "linear_references": {c: plot_hints(system)["linear_references"][c] for c in references},
         "wall_time_s": wall,
         "files": [str(f) for f in files] + [str(out / "frc.json")],
     }

@@ -42,6 +42,7 @@ Layout of a model file::
 
     [plot]                       # optional hints for the CLI figure
     force = "H"
+    linear_references = { "linear: stuck" = "stick" }   # modes linearised over `hybrid frc`
 
     [energy]                     # optional: names for energy balances
     input = "W"

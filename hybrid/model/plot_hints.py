@@ -15,7 +15,7 @@ from ..core.errors import ExpressionError
 from .expr import free_symbols, parse
 from .system import HybridSystem
 
-__all__ = ["plot_hints", "derived_plot_hints"]
+__all__ = ["plot_hints", "derived_plot_hints", "unit_of"]
 
 #: At most this many coordinates are derived (the first ones in state order).
 MAX_DERIVED_COORDINATES = 6
@@ -55,6 +55,8 @@ def derived_plot_hints(system: HybridSystem) -> dict[str, object]:
       absent if none (the figure then has no panels for it).
     - ``shade_modes``: the modes in which the rate is held at 0 (the output
       defined as 0, or the variable's derivative 0).
+    - ``linear_references`` (curves drawn over a frequency response, ``{label: mode}``, see
+      :func:`hybrid.model.linear.linear_response`): the initial mode, for a forced model.
 
     Parameters
     ----------
@@ -64,7 +66,8 @@ def derived_plot_hints(system: HybridSystem) -> dict[str, object]:
     -------
     dict
         Keys ``displacements`` (always, non-empty), ``shade_modes`` (always),
-        ``force`` and ``velocity`` (when found).
+        ``force`` and ``velocity`` (when found), ``linear_references`` (a forced model with an
+        initial mode).
 
     Examples
     --------
@@ -130,6 +133,8 @@ def derived_plot_hints(system: HybridSystem) -> dict[str, object]:
             if _is_zero(held):
                 shade.append(m.name)
     hints["shade_modes"] = shade
+    if system.initial_mode is not None and system.period is not None:
+        hints["linear_references"] = {f"linear: mode `{system.initial_mode}`": system.initial_mode}
     return hints
 
 
@@ -147,7 +152,8 @@ def plot_hints(system: HybridSystem) -> dict[str, object]:
     -------
     dict
         ``displacements`` (non-empty list), ``shade_modes`` (list), ``units``
-        (mapping), and ``force`` and ``velocity`` if given or found.
+        (mapping), ``linear_references`` (mapping of label to mode; empty for an autonomous
+        model), and ``force`` and ``velocity`` if given or found.
     """
     given: Mapping = system.plot
     hints = derived_plot_hints(system)
@@ -156,4 +162,26 @@ def plot_hints(system: HybridSystem) -> dict[str, object]:
             continue
         hints[key] = list(value) if key in ("displacements", "shade_modes") else value
     hints.setdefault("units", {})
+    hints["linear_references"] = dict(hints.get("linear_references", {})) if system.period is not None else {}
     return hints
+
+
+def unit_of(system: HybridSystem, name: str) -> str:
+    """The unit of a variable, parameter or output of a model (``""`` if it declares none).
+
+    Parameters
+    ----------
+    system : HybridSystem
+    name : str
+
+    Returns
+    -------
+    str
+    """
+    for v in system.variables:
+        if v.name == name:
+            return v.unit
+    for q in system.parameters:
+        if q.name == name:
+            return q.unit
+    return str(dict(system.plot).get("units", {}).get(name, ""))

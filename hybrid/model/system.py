@@ -68,7 +68,7 @@ MAX_TRANSITIONS = 10_000
 MAX_DEFINITIONS = 10_000
 MAX_NODES = 200_000  # distinct operation nodes of all expressions of the model, definitions expanded
 _RESERVED = {"t", "pi"}
-_PLOT_KEYS = {"force", "velocity", "displacements", "shade_modes", "units"}
+_PLOT_KEYS = {"force", "velocity", "displacements", "shade_modes", "units", "linear_references"}
 _DOMAINS = ("real", "positive", "nonnegative")
 
 
@@ -468,6 +468,15 @@ class HybridSystem:
                 raise ModelError(f"{pre}: plot `{key}` must be a name, got {n!r}")
             if n is not None and n not in vnames and n not in self.outputs:
                 raise ModelError(f"{pre}: plot `{key}` = `{n}` is neither a variable nor an output")
+        refs = self.plot.get("linear_references", {})
+        if not isinstance(refs, Mapping) or not all(
+            isinstance(k, str) and k.isprintable() and len(k) <= MAX_TEXT and r in self.mode_names
+            for k, r in refs.items()
+        ):
+            raise ModelError(
+                f"{pre}: [plot] `linear_references` must map labels to modes of the model "
+                f"({', '.join(self.mode_names)}), got {dict(refs) if isinstance(refs, Mapping) else refs!r}"
+            )
         for n in self.plot.get("displacements", ()):
             if n not in vnames and n not in self.outputs:
                 raise ModelError(f"{pre}: plot displacement `{n}` is neither a variable nor an output")

@@ -7,11 +7,14 @@ orbit branch at a grazing by a cross.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
 from matplotlib.lines import Line2D
 
+from ..model.plot_hints import unit_of
+from .frc import with_unit
 from .trajectory import _new_figure
 
 __all__ = ["plot_cont", "cont_figure"]
@@ -41,7 +44,7 @@ def cont_figure(system, parameter: str, coord: str, eq_branches, orbit_branches)
         for sp in eb.special:
             ax_a.plot([sp.parameter], [0.0], "o", color="C3", ms=8, zorder=5)
             ax_a.annotate(
-                f"{sp.kind} {parameter} = {sp.parameter:.6g}",
+                f"{sp.kind} {parameter} = {with_unit(sp.parameter, unit_of(system, parameter))}",
                 (sp.parameter, 0.0),
                 textcoords="offset points",
                 xytext=(6, 8),
@@ -66,9 +69,10 @@ def cont_figure(system, parameter: str, coord: str, eq_branches, orbit_branches)
         if br.reason == "grazing":
             ax_a.plot([p[-1]], [amp[-1]], "x", color="C3", ms=9, mew=2, zorder=5)
             ax_t.plot([p[-1]], [T[-1]], "x", color="C3", ms=9, mew=2, zorder=5)
-    unit = system.parameter_unit(parameter) if hasattr(system, "parameter_unit") else ""
+    unit = unit_of(system, parameter)
     ax_t.set_xlabel(f"{parameter}" + (f" [{unit}]" if unit else ""))
-    ax_a.set_ylabel(f"amplitude of {coord} (half peak-to-peak)")
+    cu = unit_of(system, coord)
+    ax_a.set_ylabel(f"amplitude of {coord} (half peak-to-peak)" + (f" [{cu}]" if cu else ""))
     ax_t.set_ylabel("period T [s]")
     handles = [
         Line2D([], [], color="k", ls="-", label="equilibrium, stable"),
@@ -80,7 +84,12 @@ def cont_figure(system, parameter: str, coord: str, eq_branches, orbit_branches)
         Line2D([], [], color="C3", marker="x", ls="", mew=2, label="grazing (branch end)"),
     ]
     ax_a.legend(handles=handles, fontsize=8, loc="best")
-    ax_a.set_title(f"{system.name}: equilibria and periodic orbits against {parameter}")
+    params = next((b.params for b in [*eq_branches, *(br for _, br in orbit_branches)] if b.points), {})
+    others = ", ".join(
+        f"{k} = {with_unit(v, unit_of(system, k))}" for k, v in params.items() if k != parameter
+    )
+    head = f"{system.title or system.name}: equilibria and periodic orbits against {parameter}"
+    ax_a.set_title("\n".join([head, *textwrap.wrap(others, 95)]), fontsize=9)
     for ax in (ax_a, ax_t):
         ax.grid(alpha=0.3)
     return fig
