@@ -334,15 +334,22 @@ def read_network(data: Mapping) -> Network:
 
     names: dict[str, str] = {GROUND: "the ground"}
 
-    def claim(name: object, what: str) -> str:
+    def claim(name: object, what: str, element: bool = False) -> str:
+        # springs, dampers and friction elements (`element`) may share a name with a parameter
+        # (`[springs.k1] stiffness = "k1"`): their names name no variable, parameter or definition
+        # of the model (a friction element's outputs f_NAME, w_NAME are checked when it is built)
         if not _is_name(name):
             raise ModelError(f"{what}: {_short(name)} is not a valid name (1 to 64 letters, digits, _)")
         if name in ("t", "pi"):
             raise ModelError(f"{what}: the name `{name}` is reserved")
         if name in names:
             raise ModelError(f"{what}: the name `{name}` is already {names[name]}")
-        if name in params:
-            raise ModelError(f"{what}: the name `{name}` is already a parameter")
+        if name in params and not element:
+            raise ModelError(
+                f"{what}: the name `{name}` is already a parameter (masses, nodes and forces name variables "
+                "and definitions of the model, which a parameter may not share; springs, dampers and "
+                "friction elements may)"
+            )
         names[name] = what
         return name
 
@@ -381,7 +388,7 @@ def read_network(data: Mapping) -> Network:
         for name, spec in _table(data, table).items():
             where = f"[{table}.{_key(name)}]"
             spec = _check_keys(spec, *_KEYS[table], where)
-            claim(name, where)
+            claim(name, where, element=True)
             ends = spec["between"]
             if not (isinstance(ends, list) and len(ends) == 2 and all(isinstance(e, str) for e in ends)):
                 raise ModelError(f"{where} `between` must be a list of two names, got {_short(ends)}")
@@ -1106,12 +1113,14 @@ def describe(data: Mapping) -> str:
 
 
 def _layout(net: Network) -> dict[str, int]:
-    """Columns of the points: the ground first, then breadth-first along the elements."""
-    order = [GROUND]
+    """Columns of the points: the ground first, the masses in breadth-first order along the elements,
+    each massless node between the points it joins (at the mean of their columns), so that a node
+    hanging between two masses is drawn between them."""
     adj: dict[str, list[str]] = {}
     for e in net.elements:
         adj.setdefault(e.a, []).append(e.b)
         adj.setdefault(e.b, []).append(e.a)
+    order = [GROUND]
     queue = [GROUND]
     while queue:
         p = queue.pop(0)
@@ -1120,7 +1129,18 @@ def _layout(net: Network) -> dict[str, int]:
                 order.append(q)
                 queue.append(q)
     order += [p for p in (*net.masses, *net.nodes) if p not in order]
-    return {p: k for k, p in enumerate(order)}
+    masses = [p for p in order if p not in net.nodes]
+    pos = {p: float(k) for k, p in enumerate(masses)}
+    nodes = [p for p in order if p in net.nodes]
+    for u in nodes:
+        pos[u] = float(len(masses))
+    for _ in range(50):  # each node at the mean of its neighbours (the masses stay)
+        for u in nodes:
+            nb = [pos[q] for q in adj.get(u, []) if q in pos]
+            if nb:
+                pos[u] = sum(nb) / len(nb)
+    ranked = sorted(order, key=lambda p: (pos[p], p in net.nodes, order.index(p)))
+    return {p: k for k, p in enumerate(ranked)}
 
 
 def draw_network(net: Network, path) -> None:
@@ -1150,7 +1170,7 @@ def draw_network(net: Network, path) -> None:
             ax.add_patch(Rectangle((x - 0.08, -0.5), 0.08, top + 0.5, hatch="///", fill=False, lw=1))
             label = "base y(t)" if net.base else "ground"
         elif p in net.masses:
-            ax.add_patch(Rectangle((x - 0.15, -0.5), 0.3, top + 0.5, color="0.85", ec="k", lw=1))
+            ax.add_patch(Rectangle((x - 0.15, -0.5), 0.3, top + 0.5, color="0.85", ec="k", lw=1, zorder=2))
             label = f"{p}\n({net.masses[p][0]})"
         else:
             ax.plot([x, x], [-0.5, top], color="k", lw=1, ls=":")
@@ -1163,7 +1183,18 @@ def draw_network(net: Network, path) -> None:
     for row, e in enumerate(net.elements):
         (xa, pa), (xb, pb) = sorted(((col[e.a], e.a), (col[e.b], e.b)))
         y = row
+        if pa == GROUND and xb - xa > 1:
+            # to the ground across other points: a ground of its own beside the point, not a line
+            # drawn through the masses in between
+            xa = xb - 1
+            ax.add_patch(Rectangle((xa - 0.08, y - 0.3), 0.08, 0.6, hatch="///", fill=False, lw=1, zorder=3))
         lo, hi = xa + edge(pa), xb - edge(pb)
+        if any(xa < col[q] < xb for q in net.masses):
+            # across a mass (between two other points): the symbol in the first gap, the line
+            # passing behind the masses (their boxes are drawn over it)
+            hi_sym = min(col[q] for q in col if xa < col[q] < xb) - edge(pb)
+            ax.plot([hi_sym, hi], [y, y], color="0.5", lw=1, ls="--", zorder=1)
+            hi = hi_sym
         mid = 0.5 * (lo + hi)
         w = min(0.5, 0.4 * (hi - lo))
         if e.kind == "spring":

@@ -46,10 +46,49 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: A warning of one kind (its text with the numbers left out) is shown this many times per process.
+WARNINGS_SHOWN = 3
+
+
+class _Warnings:
+    """Warnings on stderr as one line each, ``hybrid: warning: ...`` (no file name, no source line:
+    they are about the model and the run, not about the code), each kind at most
+    :data:`WARNINGS_SHOWN` times, then counted."""
+
+    def __init__(self) -> None:
+        self.seen: dict[str, int] = {}
+
+    def show(self, message, category, filename, lineno, file=None, line=None) -> None:
+        import re
+
+        text = str(message)
+        kind = re.sub(r"[-+]?\d[\d.e+-]*", "#", text)
+        n = self.seen[kind] = self.seen.get(kind, 0) + 1
+        if n <= WARNINGS_SHOWN:
+            print(f"hybrid: warning: {text}", file=sys.stderr)
+
+    def summary(self) -> None:
+        more = sum(n - WARNINGS_SHOWN for n in self.seen.values() if n > WARNINGS_SHOWN)
+        if more:
+            print(f"hybrid: warning: {more} more warnings like those above were not shown", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hybrid`` command."""
+    import warnings
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    shown = _Warnings()
+    with warnings.catch_warnings():
+        warnings.showwarning = shown.show
+        try:
+            return _run(args)
+        finally:
+            shown.summary()
+
+
+def _run(args) -> int:
     try:
         return args.handler(args)
     except (UsageError, ModelError, ValueError, TypeError) as exc:

@@ -5,15 +5,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numpy as np
-
 from ..continuation.periodic import periodic_orbit
 from ..core.budget import time_limit
 from ..core.options import ShootingOptions, SolverOptions
 from ..engine.io import to_json, write_trajectory_csv
 from ..engine.simulate import initial_state
 from ..model.registry import resolve_model
-from ..orbits.orbit import PeriodicOrbit
+from ..orbits.orbit import PeriodicOrbit, stability_text
 from .common import (
     OUT_HELP,
     UsageError,
@@ -81,13 +79,7 @@ def orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
     )
     route = {"newton": "Newton's method from the guess (after its transient)"}.get(orbit.route, orbit.route)
     lines.append(f"  found by: {route}")
-    fl = np.abs(orbit.floquet_multipliers)
-    verdict = {
-        "stable": "stable (all Floquet multipliers inside the unit circle)",
-        "unstable": "UNSTABLE (a Floquet multiplier outside the unit circle)",
-        "neutral": "neutral (marginally stable: a multiplier on the unit circle)",
-    }.get(orbit.stability, orbit.stability)
-    lines.append(f"  stability: {verdict}" + (f", max |mu| = {fl.max():.9g}" if fl.size else ""))
+    lines.append(f"  stability: {stability_text(orbit)}")
     seq = " -> ".join(orbit.mode_sequence)
     lines.append(
         f"  {orbit.transitions_per_period} switches per period; modes from t0 = {orbit.t0:.6g} s: {seq}"

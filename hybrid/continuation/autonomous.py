@@ -312,7 +312,12 @@ def orbit_branch(
         ``kind`` ``"autonomous-orbits"``; ``status`` ``"stopped"`` with ``reason`` ``"grazing"``,
         ``"stalled"``, ``"period-jump"`` or ``"no-start"`` where it ended inside the range.
     """
-    reject_keywords("orbit_branch", unexpected, options=SolverOptions, settings=ContinuationOptions)
+    reject_keywords(
+        "orbit_branch",
+        unexpected,
+        options=options if isinstance(options, SolverOptions) else SolverOptions,
+        settings=settings if isinstance(settings, ContinuationOptions) else ContinuationOptions,
+    )
     system = orbit.system
     if parameter not in system.parameter_names:
         raise InputError(
@@ -381,7 +386,12 @@ def hopf_branch(
     Branch
         ``kind`` ``"autonomous-orbits"``, as :func:`orbit_branch`'s.
     """
-    reject_keywords("hopf_branch", unexpected, options=SolverOptions, settings=ContinuationOptions)
+    reject_keywords(
+        "hopf_branch",
+        unexpected,
+        options=options if isinstance(options, SolverOptions) else SolverOptions,
+        settings=settings if isinstance(settings, ContinuationOptions) else ContinuationOptions,
+    )
     system = eq.system
     settings = _check_settings(settings)
     options = ORBIT_OPTIONS if options is None else options

@@ -515,7 +515,12 @@ def continue_orbits(
     TypeError
         A keyword that is a field of ``options`` or ``settings`` (the message says which).
     """
-    reject_keywords("continue_orbits", unexpected, options=SolverOptions, settings=ContinuationOptions)
+    reject_keywords(
+        "continue_orbits",
+        unexpected,
+        options=options if isinstance(options, SolverOptions) else SolverOptions,
+        settings=settings if isinstance(settings, ContinuationOptions) else ContinuationOptions,
+    )
     options = ORBIT_OPTIONS if options is None else options
     if not isinstance(system, HybridSystem):
         raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")

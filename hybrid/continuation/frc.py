@@ -311,7 +311,12 @@ def frequency_response(
     >>> params = system.presets["forced"]
     >>> fr = hybrid.frequency_response(system, params, (0.6, 0.7))  # doctest: +SKIP
     """
-    reject_keywords("frequency_response", unexpected, options=SolverOptions, settings=ContinuationOptions)
+    reject_keywords(
+        "frequency_response",
+        unexpected,
+        options=options if isinstance(options, SolverOptions) else SolverOptions,
+        settings=settings if isinstance(settings, ContinuationOptions) else ContinuationOptions,
+    )
     if parameter is None:
         parameter = forcing_parameter(system)
     lo, hi = (float(v) for v in p_range)

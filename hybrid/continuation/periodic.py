@@ -81,7 +81,12 @@ def periodic_orbit(
     TypeError
         A keyword that is a field of ``options`` or ``settings`` (the message says which).
     """
-    reject_keywords("periodic_orbit", unexpected, options=SolverOptions, settings=ShootingOptions)
+    reject_keywords(
+        "periodic_orbit",
+        unexpected,
+        options=options if isinstance(options, SolverOptions) else SolverOptions,
+        settings=settings if isinstance(settings, ShootingOptions) else ShootingOptions,
+    )
     settings = ShootingOptions() if settings is None else settings
     if isinstance(system, HybridSystem) and system.period is None:
         if isinstance(settings, ShootingOptions) and settings.transient_periods < 1:

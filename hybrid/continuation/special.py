@@ -144,8 +144,12 @@ def detect(a, b) -> list[tuple[str, str]]:
             out.append(
                 (
                     "grazing",
-                    f"switches per period change from {sa[0]} to {sb[0]} "
-                    f"(modes {' '.join(sa[2])} -> {' '.join(sb[2])})",
+                    (
+                        f"switches per period change from {sa[0]} to {sb[0]} "
+                        if sa[0] != sb[0]
+                        else f"the same modes and {sa[0]} switches per period, in another order "
+                    )
+                    + f"(modes {' '.join(sa[2])} -> {' '.join(sb[2])})",
                 )
             )
         for _kind, desc in jumps:
@@ -337,7 +341,11 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
                 # a probe with part of them (e.g. one slip phase of two, of zero length) is another
                 # solution the corrector found near a turn of the branch (a grazing member of a
                 # neutral family), whose own mode change lies elsewhere (isolator: 3.7e-4 away).
-                failure, pt = f"the corrector found an orbit of another signature at {pt.p:.10g}", None
+                failure = (
+                    f"at {pt.p:.10g} the corrector converged to an orbit with other modes than either side "
+                    f"of the change ({' '.join(signature(pt.view())[2])}): another solution nearby, not the branch's"
+                )
+                pt = None
                 continue
             break
         if pt is None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, is_dataclass
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 
 from .errors import InputError, InputTypeError
 
@@ -334,24 +334,50 @@ class ContinuationOptions:
 FIRST_ORBIT_MAX_ITER = 30
 
 
-def _field_path(cls: type, name: str, value) -> str | None:
-    """``Cls(name=value)`` or ``Cls(inner=Inner(name=value))`` if ``name`` is a field of the options
-    class ``cls`` or of one nested in it, else None."""
+def _field_path(cls: type, name: str) -> list[str] | None:
+    """The fields leading to ``name`` in the options class ``cls`` (``["newton", "tol"]`` for a
+    field of a nested options object), or None if it has no such field."""
     for f in fields(cls):
         if f.name == name and f.init:
-            return f"{cls.__name__}({name}={value!r})"
+            return [name]
     for f in fields(cls):
         if is_dataclass(f.default) and not isinstance(f.default, type):
-            inner = _field_path(type(f.default), name, value)
+            inner = _field_path(type(f.default), name)
             if inner is not None:
-                return f"{cls.__name__}({f.name}={inner})"
+                return [f.name, *inner]
     return None
 
 
-def reject_keywords(function: str, keywords: Mapping, **where: type) -> None:
-    """Raise :class:`hybrid.core.errors.InputTypeError` (a :class:`TypeError`) for ``keywords`` that ``function`` does not take, saying for each
-    one that is a field of an options class in ``where`` (argument name -> class) what to pass
-    instead, e.g. ``options=SolverOptions(integrator='exact')``.
+def _default(f):
+    return f.default_factory() if f.default is MISSING and f.default_factory is not MISSING else f.default
+
+
+def _constructor(obj, updates: Mapping) -> str:
+    """``Cls(a=1, inner=Inner(b=2))``: the fields of the options object ``obj`` that differ from
+    their defaults, with ``updates`` (nested by field) applied; a call that builds the object wanted."""
+    cls = type(obj)
+    items = []
+    for f in fields(cls):
+        if not f.init:
+            continue
+        current = getattr(obj, f.name)
+        if is_dataclass(current) and not isinstance(current, type):
+            nested = updates.get(f.name, {})
+            if nested or current != _default(f):
+                items.append(f"{f.name}={_constructor(current, nested)}")
+        elif f.name in updates:
+            items.append(f"{f.name}={updates[f.name]!r}")
+        elif current != _default(f):
+            items.append(f"{f.name}={current!r}")
+    return f"{cls.__name__}({', '.join(items)})"
+
+
+def reject_keywords(function: str, keywords: Mapping, **where: object) -> None:
+    """Raise :class:`hybrid.core.errors.InputTypeError` (a :class:`TypeError`) for ``keywords`` that
+    ``function`` does not take; its message is the fix: for the keywords that are fields of an
+    options class in ``where`` (argument name -> the options object the caller passed, or the
+    class), the arguments to pass instead, each one options object holding them all and what the
+    caller had already set, e.g. ``options=SolverOptions(rtol=1e-09, integrator='exact')``.
 
     Raises
     ------
@@ -360,14 +386,27 @@ def reject_keywords(function: str, keywords: Mapping, **where: type) -> None:
     """
     if not keywords:
         return
-    hints = []
+    updates: dict[str, dict] = {}
+    unknown = []
     for name, value in keywords.items():
-        for arg, cls in where.items():
-            path = _field_path(cls, name, value)
+        for arg, obj in where.items():
+            path = _field_path(obj if isinstance(obj, type) else type(obj), name)
             if path is not None:
-                hints.append(f"`{name}` is an option: pass {arg}={path}")
+                node = updates.setdefault(arg, {})
+                for key in path[:-1]:
+                    node = node.setdefault(key, {})
+                node[path[-1]] = value
                 break
         else:
-            hints.append(f"`{name}` is not an argument of {function}()")
+            unknown.append(name)
     names = ", ".join(repr(k) for k in keywords)
-    raise InputTypeError(f"{function}() got unexpected keyword argument(s) {names}: " + "; ".join(hints))
+    parts = []
+    if updates:
+        fix = ", ".join(
+            f"{arg}={_constructor(obj() if isinstance(obj, type) else obj, updates[arg])}"
+            for arg, obj in where.items()
+            if arg in updates
+        )
+        parts.append(f"options go in objects, not keywords: call {function}(..., {fix})")
+    parts += [f"`{name}` is not an argument of {function}()" for name in unknown]
+    raise InputTypeError(f"{function}() got unexpected keyword argument(s) {names}: " + "; ".join(parts))

@@ -556,6 +556,16 @@ class HybridSystem:
     def __hash__(self) -> int:
         return hash((self.name, self.variable_names, self.parameter_names, self.mode_names))
 
+    def __repr__(self) -> str:
+        """One line: the name and the counts (the whole model is in its fields, and `hybrid show`)."""
+        n_v, n_p, n_m, n_t = len(self.variables), len(self.parameters), len(self.modes), len(self.transitions)
+        return (
+            f"HybridSystem({self.name!r}: {n_v} variable{'s' * (n_v != 1)}, {n_p} parameter{'s' * (n_p != 1)}, "
+            f"{n_m} mode{'s' * (n_m != 1)}, {n_t} transition{'s' * (n_t != 1)}"
+            + (f", period {self.period}" if self.period else ", autonomous")
+            + ")"
+        )
+
     @property
     def parsed(self) -> ParsedSystem:
         """The model's expressions as parsed and expanded at construction (read-only)."""

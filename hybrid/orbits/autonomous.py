@@ -271,7 +271,12 @@ def autonomous_orbit(
     >>> round(orbit.period, 6)   # 2 (Fs - Fk) / (k v_b) + (pi + 2 atan(v_b / (omega d))) / omega
     6.712389
     """
-    reject_keywords("autonomous_orbit", unexpected, options=SolverOptions, settings=ShootingOptions)
+    reject_keywords(
+        "autonomous_orbit",
+        unexpected,
+        options=options if isinstance(options, SolverOptions) else SolverOptions,
+        settings=settings if isinstance(settings, ShootingOptions) else ShootingOptions,
+    )
     options = ORBIT_OPTIONS if options is None else options
     settings = ShootingOptions() if settings is None else settings
     check_orbit_inputs(system, options, settings, forced=False)

@@ -22,7 +22,7 @@ from ..engine.trajectory import Trajectory, sampled_trajectory
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 
-__all__ = ["PeriodicOrbit", "ORBIT_OPTIONS"]
+__all__ = ["stability_text", "PeriodicOrbit", "ORBIT_OPTIONS"]
 
 #: Default tolerances for periodic orbits (tighter than for plain simulation:
 #: the error of a weakly damped orbit is the integration error times cond(I - M)).
@@ -620,12 +620,26 @@ def finish_orbit(
         }
     msg = note
     if family:
-        msg += "a family of periodic orbits (neutral multiplier 1); " + (
-            "the member with gauge `" + str(sys_.orbit.get("gauge")) + "` = 0 is returned; "
-            if g is not None
-            else "the member nearest the guess is returned (the model declares no `[orbit] gauge`: an expression "
-            "of the state that is 0 on the member wanted, e.g. a stuck element's offset, picks one; see README); "
+        # the direction along the family (the null vector of I - M), named by its largest components
+        v = np.linalg.svd(IA)[2][-1]
+        along = [names[nw.d[i]] for i in np.flatnonzero(np.abs(v) >= 0.3 * np.max(np.abs(v)))]
+        gauge = str(sys_.orbit.get("gauge"))
+        fixes = g is not None and abs(float(g[1][nw.d] @ v)) > 1e-6 * max(
+            float(np.linalg.norm(g[1][nw.d])), 1e-300
         )
+        msg += f"a family of periodic orbits (neutral multiplier 1; the orbits differ along {', '.join(along)}); "
+        if fixes:
+            msg += f"the member with gauge `{gauge}` = 0 is returned; "
+        elif g is not None:
+            msg += (
+                f"the model's gauge `{gauge}` does not pick a member (it does not change along this family): "
+                "the member nearest the guess is returned; "
+            )
+        else:
+            msg += (
+                "the member nearest the guess is returned (the model declares no `[orbit] gauge`: an expression "
+                "of the state that is 0 on the member wanted, e.g. a stuck element's offset, picks one; see README); "
+            )
     err = cond * shooter.noise_rtol
     if sv.size and sv[0] == 0.0:
         msg += (
@@ -670,3 +684,46 @@ def finish_orbit(
         nfev=shooter.nfev,
         reason=reason,
     )
+
+
+def stability_text(orbit) -> str:
+    """The stability verdict in words, with the multipliers that decide it.
+
+    A neutral orbit of a family has a multiplier exactly 1 that belongs to the family (kind
+    ``"neutral"``), apart from its Floquet multipliers: the text says so, and gives the largest
+    of the others, so that ``|mu| = 0.55`` is never read as the multiplier on the circle.
+
+    Parameters
+    ----------
+    orbit : PeriodicOrbit
+
+    Returns
+    -------
+    str
+    """
+    fl = np.abs(np.asarray(orbit.floquet_multipliers))
+    n_family = sum(1 for k in orbit.multiplier_kinds if k == "neutral")
+    largest = f"largest |mu| = {fl.max():.9g}" if fl.size else ""
+    if orbit.stability == "stable":
+        return "stable: every Floquet multiplier inside the unit circle" + (
+            f" ({largest})" if largest else ""
+        )
+    if orbit.stability == "unstable":
+        return "UNSTABLE: a Floquet multiplier outside the unit circle" + (f" ({largest})" if largest else "")
+    if orbit.stability == "neutral":
+        if n_family:
+            rest = (
+                f"; the other Floquet multipliers inside the unit circle ({largest})"
+                if fl.size and fl.max() < 1.0 - 1e-6
+                else (
+                    f"; the other Floquet multipliers on the unit circle too ({largest})" if largest else ""
+                )
+            )
+            return (
+                f"neutral (marginally stable): {n_family} multiplier{'s' * (n_family > 1)} exactly 1 from the family "
+                "of orbits (a free offset)" + rest
+            )
+        return "neutral (marginally stable): a Floquet multiplier on the unit circle" + (
+            f" ({largest})" if largest else ""
+        )
+    return orbit.stability

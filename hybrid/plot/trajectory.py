@@ -249,8 +249,11 @@ def orbit_figure(orbit) -> Figure:
         if mu.size:
             ax_m.plot(mu.real, mu.imag, ls="none", ms=7, mfc="none", mew=1.5, **st)
     fl = np.abs(orbit.floquet_multipliers)
-    extra = f"; max |mu| = {fl.max():.6g}" if fl.size else ""
-    ax_m.set_title(f"multipliers: {orbit.stability}{extra}")
+    n_family = sum(1 for k in orbit.multiplier_kinds if k == "neutral")
+    extra = "; 1 from the family" * bool(n_family) + (
+        f"; largest {'other ' * bool(n_family)}|mu| = {fl.max():.6g}" if fl.size else ""
+    )
+    ax_m.set_title(f"multipliers: {orbit.stability}{extra}", fontsize=9)
     ax_m.set_xlabel("Re mu")
     ax_m.set_ylabel("Im mu")
     ax_m.set_aspect("equal", adjustable="datalim")

@@ -615,25 +615,25 @@ def test_an_autonomous_orbit_needs_a_transient():
     [
         (
             lambda s, p: hybrid.frequency_response(s, p, (0.7, 0.9), integrator="exact"),
-            r"frequency_response\(\) got unexpected keyword argument\(s\) 'integrator': `integrator` is an "
-            r"option: pass options=SolverOptions\(integrator='exact'\)",
+            r"frequency_response\(\) got unexpected keyword argument\(s\) 'integrator': options go in "
+            r"objects, not keywords: call frequency_response\(\.\.\., options=SolverOptions\(integrator='exact'\)\)$",
         ),
         (
             lambda s, p: hybrid.periodic_orbit(s, p, tol=1e-11),
-            r"pass settings=ShootingOptions\(newton=NewtonOptions\(tol=1e-11\)\)",
+            r"call periodic_orbit\(\.\.\., settings=ShootingOptions\(newton=NewtonOptions\(tol=1e-11\)\)\)",
         ),
         (
             lambda s, p: hybrid.periodic_orbit(s, p, transient_periods=0),
-            r"pass settings=ShootingOptions\(transient_periods=0\)",
+            r"settings=ShootingOptions\(transient_periods=0\)",
         ),
         (
             lambda s, p: hybrid.continue_orbits(s, p, "Omega", (0.7, 0.9), ds=0.1, rtol=1e-9),
-            r"'ds', 'rtol': `ds` is an option: pass settings=ContinuationOptions\(ds=0\.1\); `rtol` is an "
-            r"option: pass options=SolverOptions\(rtol=1e-09\)",
+            r"'ds', 'rtol': options go in objects, not keywords: call continue_orbits\(\.\.\., "
+            r"options=SolverOptions\(rtol=1e-09\), settings=ContinuationOptions\(ds=0\.1\)\)",
         ),
         (
             lambda s, p: hybrid.continue_orbits(s, p, "Omega", (0.7, 0.9), max_iter=4),
-            r"pass settings=ContinuationOptions\(newton=NewtonOptions\(max_iter=4\)\)",
+            r"settings=ContinuationOptions\(newton=NewtonOptions\(max_iter=4\)\)",
         ),
         (
             lambda s, p: hybrid.continue_orbits(s, p, "Omega", (0.7, 0.9), step=0.1),
@@ -647,13 +647,32 @@ def test_a_loose_option_says_where_it_goes(coulomb, call, match):
         call(system, p)
 
 
+def test_the_message_of_a_loose_option_is_the_call_that_works(coulomb):
+    """Issue 24: the fix, merged with the options already passed, runs as it is printed."""
+    system, p = coulomb
+    with pytest.raises(TypeError) as info:
+        hybrid.periodic_orbit(system, p, options=SolverOptions(rtol=1e-9), integrator="exact", max_iter=7)
+    msg = str(info.value)
+    fix = msg.split("call periodic_orbit(..., ", 1)[1][:-1]
+    assert fix == (
+        "options=SolverOptions(rtol=1e-09, integrator='exact'), "
+        "settings=ShootingOptions(newton=NewtonOptions(max_iter=7))"
+    )
+    namespace = {
+        "SolverOptions": SolverOptions,
+        "ShootingOptions": ShootingOptions,
+        "NewtonOptions": NewtonOptions,
+    }
+    kwargs = eval(f"dict({fix})", namespace)  # noqa: S307 - the message's own text, built by the library
+    assert kwargs["options"] == SolverOptions(rtol=1e-9, integrator="exact")
+    assert kwargs["settings"].newton.max_iter == 7
+
+
 def test_autonomous_functions_say_where_a_loose_option_goes(belt_cycle):
     belt = belt_cycle.system
-    with pytest.raises(TypeError, match=r"pass settings=ContinuationOptions\(samples_per_period=64\)"):
+    with pytest.raises(TypeError, match=r"settings=ContinuationOptions\(samples_per_period=64\)"):
         hybrid.orbit_branch(belt_cycle, "v_b", (0.2, 0.6), samples_per_period=64)
-    with pytest.raises(
-        TypeError, match=r"pass settings=ShootingOptions\(newton=NewtonOptions\(tol=1e-12\)\)"
-    ):
+    with pytest.raises(TypeError, match=r"settings=ShootingOptions\(newton=NewtonOptions\(tol=1e-12\)\)"):
         hybrid.autonomous_orbit(belt, belt.preset("standard"), tol=1e-12)
     with pytest.raises(TypeError, match=r"`bounds` is not an argument of hopf_branch\(\)"):
         hybrid.hopf_branch(None, "v_b", (0.2, 0.6), bounds=(0.2, 0.6))

@@ -548,3 +548,56 @@ def test_every_field_of_every_shipped_network_takes_junk_cleanly(name):
                     tried += 1
     OUTCOMES["field replacements"] += tried
     assert tried >= 100
+
+
+def test_elements_have_a_namespace_of_their_own(tmp_path):
+    """Issue 24: `[springs.c1] stiffness = "c1"` is accepted (element names are not parameters); the
+    model is the same as with other element names, except for a friction element's outputs."""
+    data = copy.deepcopy(BASE)
+    renamed = copy.deepcopy(BASE)
+    for table in ("springs", "friction"):
+        renamed[table] = {
+            (spec.get("stiffness") or spec.get("sliding")): spec for spec in data[table].values()
+        }
+    assert set(renamed["springs"]) <= set(renamed["parameters"])  # each spring named as its stiffness
+    a = load_system(_write(tmp_path, data, "a.toml"))
+    b = load_system(_write(tmp_path, renamed, "b.toml"))
+    assert a.mode_names == b.mode_names
+    assert a.variable_names == b.variable_names
+    fa, fb = next(iter(data["friction"])), next(iter(renamed["friction"]))
+    for m in a.modes:
+        assert dict(m.derivatives) == dict(b.modes[a.mode_names.index(m.name)].derivatives)
+    assert f"f_{fb}" in b.outputs
+    assert f"f_{fa}" in a.outputs
+    # still one name per element, and masses, nodes and forces stay apart from parameters
+    twice = copy.deepcopy(renamed)
+    twice["dampers"] = {next(iter(renamed["springs"])): {"between": ["ground", "x1"], "coefficient": "c1"}}
+    with pytest.raises(ModelError, match=r"\[dampers\.c1\]: the name `c1` is already \[springs\.c1\]"):
+        load_system(_write(tmp_path, twice, "c.toml"))
+    force = copy.deepcopy(BASE)
+    force["forces"] = {"F": next(iter(BASE["forces"].values()))}
+    with pytest.raises(
+        ModelError, match=r"\[forces\.F\]: the name `F` is already a parameter \(masses, nodes and forces"
+    ):
+        load_system(_write(tmp_path, force, "d.toml"))
+
+
+def test_a_node_is_drawn_between_the_points_it_joins(tmp_path):
+    """Issue 24: `hybrid show --out` placed a node hanging between two masses beyond the second one
+    (breadth-first from the ground, both masses being the ground's neighbours)."""
+    import tomllib as _toml
+
+    from hybrid_models.network import _layout, draw
+
+    data = copy.deepcopy(BASE)
+    data["springs"] = {
+        "a": {"between": ["ground", "x1"], "stiffness": "c1"},
+        "b": {"between": ["x1", "u"], "stiffness": "c2"},
+        "c": {"between": ["x2", "ground"], "stiffness": "c3"},
+    }
+    data["friction"] = {"H": {"between": ["u", "x2"], "sliding": "R"}}
+    net = read_network(_toml.loads(_write(tmp_path, data).read_text()))
+    col = _layout(net)
+    assert col["ground"] < col["x1"] < col["u"] < col["x2"]
+    draw(data, tmp_path / "net.png")
+    assert (tmp_path / "net.png").stat().st_size > 0
