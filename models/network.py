@@ -109,7 +109,7 @@ _KEYS = {
     "springs": ({"between", "stiffness"}, {"description"}),
     "dampers": ({"between", "coefficient"}, {"description"}),
     "friction": ({"between", "sliding"}, {"static", "description"}),
-    "forces": ({"on"}, {"offset", "amplitude", "frequency", "description"}),
+    "forces": ({"on"}, {"offset", "amplitude", "frequency", "harmonics", "description"}),
 }
 _STATES = ("stick", "slip+", "slip-")
 _SIGN = {"slip+": 1, "slip-": -1}
@@ -145,13 +145,32 @@ class Element:
 
 @dataclass(frozen=True)
 class Force:
-    """An excitation ``offset + amplitude*sin(frequency*t)`` [N] on a mass."""
+    """An excitation ``offset + amplitude*sin(frequency*t)`` [N] on a mass, or with ``harmonics``
+    ``offset + sum of amplitude_k*sin(multiple_k*frequency*t + phase_k)``."""
 
     name: str
     on: str
     offset: str | None
     amplitude: str | None
     frequency: str | None
+    harmonics: tuple = ()  # (amplitude, multiple, phase or None) each
+
+    def terms(self) -> list[tuple[str, int, str | None]]:
+        """``(amplitude, multiple, phase)`` of each harmonic (one for ``amplitude``)."""
+        if self.harmonics:
+            return list(self.harmonics)
+        return [(self.amplitude, 1, None)] if self.amplitude is not None else []
+
+    def text(self, space: str = "*") -> str:
+        """The force as an expression (``space=" "``: for reading, ``F sin(Omega t)``)."""
+        parts = [self.offset] if self.offset is not None else []
+        for amp, n, phase in self.terms():
+            arg = (f"{n}*" if n != 1 else "") + f"{_paren(self.frequency)}*t"
+            if phase is not None:
+                arg += f" + {_paren(phase)}"
+            part = f"{_paren(amp)}*sin({arg})"
+            parts.append(part.replace("*", " ") if space == " " else part)
+        return " + ".join(parts)
 
 
 @dataclass(frozen=True)
@@ -421,16 +440,22 @@ def read_network(data: Mapping) -> Network:
             raise ModelError(
                 f"{where} `on` = {_short(spec['on'])}: a force acts on a mass; masses: {', '.join(masses)}"
             )
-        if ("amplitude" in spec) != ("frequency" in spec):
-            raise ModelError(f"{where}: `amplitude` and `frequency` go together")
-        if "amplitude" not in spec and "offset" not in spec:
+        if "amplitude" in spec and "harmonics" in spec:
+            raise ModelError(f"{where}: give `amplitude` (one harmonic) or `harmonics` (several), not both")
+        periodic = "amplitude" in spec or "harmonics" in spec
+        if periodic != ("frequency" in spec):
+            raise ModelError(f"{where}: `amplitude` (or `harmonics`) and `frequency` go together")
+        if not periodic and "offset" not in spec:
             raise ModelError(f"{where} has neither an `offset` nor an `amplitude`")
         got = {
             k: _coef(spec[k], params, f"{where} `{k}`")
             for k in ("offset", "amplitude", "frequency")
             if k in spec
         }
-        forces.append(Force(name, spec["on"], got.get("offset"), got.get("amplitude"), got.get("frequency")))
+        harmonics = _harmonics(spec.get("harmonics"), params, where) if "harmonics" in spec else ()
+        forces.append(
+            Force(name, spec["on"], got.get("offset"), got.get("amplitude"), got.get("frequency"), harmonics)
+        )
     base = None
     if "base" in data:
         spec = _check_keys(_table(data, "base"), {"amplitude", "frequency"}, set(), "[base]")
@@ -458,6 +483,41 @@ def read_network(data: Mapping) -> Network:
     )
     _check_topology(net)
     return net
+
+
+#: Most harmonics of one force.
+MAX_HARMONICS = 64
+
+
+def _harmonics(value: object, params: Mapping[str, str], where: str) -> tuple:
+    """A force's ``harmonics``: a list of tables ``{amplitude, multiple = 1, phase = 0}``, the
+    ``multiple`` an integer >= 1 of the force's ``frequency``, the ``phase`` [rad]."""
+    if not isinstance(value, list) or not value or len(value) > MAX_HARMONICS:
+        raise ModelError(
+            f"{where} `harmonics` must be a list of 1 to {MAX_HARMONICS} tables "
+            f"{{ amplitude = ..., multiple = N, phase = ... }}, got {_short(value)}"
+        )
+    out = []
+    seen = set()
+    for k, h in enumerate(value):
+        at = f"{where} `harmonics[{k}]`"
+        if not isinstance(h, Mapping):
+            raise ModelError(f"{at} must be a table {{ amplitude = ..., multiple = N, phase = ... }}")
+        h = _check_keys(h, {"amplitude"}, {"multiple", "phase"}, at)
+        n = h.get("multiple", 1)
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000:
+            raise ModelError(
+                f"{at} `multiple` must be an integer from 1 to 1000 (of `frequency`), got {_short(n)}"
+            )
+        if n in seen:
+            raise ModelError(
+                f"{at}: the multiple {n} is given twice; add the amplitudes, or give phases in one"
+            )
+        seen.add(n)
+        amp = _coef(h["amplitude"], params, f"{at} `amplitude`")
+        phase = _coef(h["phase"], params, f"{at} `phase`") if "phase" in h else None
+        out.append((amp, n, phase))
+    return tuple(out)
 
 
 def _check_static(sliding: str, static: str, presets: Mapping, where: str) -> None:
@@ -904,8 +964,13 @@ def network_model(net: Network) -> dict:
         terms = []
         if f.offset is not None:
             terms.append(f"+{f.offset}")
-        if f.amplitude is not None:
-            terms.append(f"+{_paren(f.amplitude)}*sin({_paren(f.frequency)}*t)")
+        for amp, n, phase in f.terms():
+            arg = (
+                (f"{n}*" if n != 1 else "")
+                + f"{_paren(f.frequency)}*t"
+                + (f" + {_paren(phase)}" if phase else "")
+            )
+            terms.append(f"+{_paren(amp)}*sin({arg})")
         definitions[f.name] = _join(terms)
     if net.base:
         y, om = (_paren(s) for s in net.base)
@@ -1081,8 +1146,7 @@ def describe_network(net: Network) -> str:
             what += f", R_s = {e.static}"
         lines.append(f"  {e.a:>10} --{symbols[e.kind]}-- {e.b:<10} {e.kind} {e.name}: {what}")
     for f in net.forces:
-        parts = [p for p in (f.offset, f"{f.amplitude}*sin({f.frequency}*t)" if f.amplitude else None) if p]
-        lines.append(f"  force  {f.name} = {' + '.join(parts)} on {f.on}")
+        lines.append(f"  force  {f.name} = {f.text()} on {f.on}")
     return "\n".join(lines)
 
 
@@ -1224,7 +1288,7 @@ def draw_network(net: Network, path) -> None:
         x = col[f.on]
         arrow = {"arrowstyle": "->", "color": "tab:blue"}
         ax.annotate("", xy=(x + 0.6, y), xytext=(x + edge(f.on), y), arrowprops=arrow)
-        parts = [p for p in (f.offset, f"{f.amplitude} sin({f.frequency} t)" if f.amplitude else None) if p]
+        parts = [f.text(" ")]
         ax.text(
             x + 0.2, y + 0.15, f"{f.name} = {' + '.join(parts)}", va="bottom", fontsize=8, color="tab:blue"
         )

@@ -1,13 +1,17 @@
 """Affine modes as exact linear flows: the analysis the exact integrator runs on.
 
 A mode is *affine* when its derivatives and algebraic equations are affine in
-the state, with time entering only through ``sin`` and ``cos`` of one forcing
-frequency ``w`` (arguments ``k t + phi`` with ``|k| = w``), and its guards are
-affine too. Then, with the slave variables ``y_a`` eliminated from the
-algebraic equations (``y_a = -G_a^-1 (G_d y_d + g(t))``) and the state
-augmented by ``S = sin(w t)``, ``C = cos(w t)`` and ``1``, the flow is linear::
+the state, with time entering only through ``sin`` and ``cos`` of integer multiples
+``n w`` of one forcing frequency ``w`` (arguments ``k t + phi`` with ``|k| = n w``: a
+forcing that is a sum of harmonics), and its guards are affine too. Then, with the slave
+variables ``y_a`` eliminated from the algebraic equations (``y_a = -G_a^-1 (G_d y_d + g(t))``)
+and the state augmented by ``S_n = sin(n w t)``, ``C_n = cos(n w t)`` for each multiple ``n``
+that occurs, and ``1``, the flow is linear::
 
-    z = [y_d, S, C, 1],   z' = M z,   z(t + h) = expm(M h) z(t)
+    z = [y_d, S_1, C_1, S_2, C_2, ..., 1],   z' = M z,   z(t + h) = expm(M h) z(t)
+
+(one harmonic: ``z = [y_d, S, C, 1]``). The base frequency ``w`` is the lowest of the
+system's forcing frequencies; each other must be an integer multiple of it.
 
 (quadratures excluded from ``y_d``; a quadrature whose rate is a quadratic form of the state
 integrates exactly too, see :mod:`hybrid.integrators.flow`).
@@ -76,6 +80,9 @@ class AffineMode:
         Quadrature rates as quadratic forms ``z^T Q_j z``.
     W : ndarray, shape (n_guards, nz)
         Guards as linear functions ``W z``.
+    harmonics : tuple of int
+        The multiples ``n`` of ``omega`` in the forcing, one pair ``S_n, C_n`` each in ``z``
+        after ``y_d``, in this order (``(1,)``: the one-frequency layout ``[y_d, S, C, 1]``).
     """
 
     cm: CompiledMode | None
@@ -87,6 +94,7 @@ class AffineMode:
     P: np.ndarray
     Q: np.ndarray
     W: np.ndarray
+    harmonics: tuple = (1,)
 
     @property
     def nz(self) -> int:
@@ -102,8 +110,37 @@ class AffineMode:
 
     def augment(self, t: float, y: np.ndarray) -> np.ndarray:
         """``z`` at ``(t, y)`` (the slave variables of ``y`` are not read)."""
-        forcing = [math.sin(self.omega * t), math.cos(self.omega * t)] if self.omega is not None else []
-        return np.concatenate([np.asarray(y, dtype=float)[self.d], forcing, [1.0]])
+        return np.concatenate([np.asarray(y, dtype=float)[self.d], self.forcing(t), [1.0]])
+
+    def forcing(self, t: float) -> list[float]:
+        """The forcing part of ``z`` at ``t``: ``[sin(n w t), cos(n w t)]`` for each harmonic ``n``."""
+        if self.omega is None:
+            return []
+        out = []
+        for n in self.harmonics:
+            wt = n * self.omega * t  # n = 1: exactly w t
+            out += [math.sin(wt), math.cos(wt)]
+        return out
+
+    def forcing_columns(self, ts: np.ndarray) -> np.ndarray:
+        """:meth:`forcing` at each time of ``ts`` (rows)."""
+        ts = np.asarray(ts, dtype=float)
+        if self.omega is None:
+            return np.zeros((ts.size, 0))
+        cols = []
+        for n in self.harmonics:
+            wt = n * self.omega * ts
+            cols += [np.sin(wt), np.cos(wt)]
+        return np.stack(cols, axis=1)
+
+    def forcing_rate(self, t: float, dw: float) -> np.ndarray:
+        """``d/dp`` of the forcing part of ``z`` at ``t`` for a base frequency changing at ``dw`` per
+        unit of ``p``: ``[n t cos(n w t), -n t sin(n w t)] dw`` per harmonic."""
+        out = []
+        for n in self.harmonics:
+            wt = n * self.omega * t
+            out += [n * t * math.cos(wt) * dw, -n * t * math.sin(wt) * dw]
+        return np.array(out)
 
     def state(self, z: np.ndarray, quad: np.ndarray) -> np.ndarray:
         """The full state from ``z`` and the quadrature values."""
@@ -143,14 +180,22 @@ class AffineMode:
         return ypp
 
 
+def _harmonic_symbols(g: int) -> tuple[str, str]:
+    """The symbols of ``sin``/``cos`` of the ``g``-th distinct forcing rate (the first: ``S``, ``C``)."""
+    return (_S, _C) if g == 0 else (f"{_S}{g}", f"{_C}{g}")
+
+
 def _phase_nodes(
-    exprs: list[Expr], where: str, params: frozenset, first: int
+    exprs: list[Expr], where: str, params: frozenset, first: int, groups: list[Expr] | None = None
 ) -> tuple[list[Expr], dict[Expr, Expr]]:
     """Replacements of the ``sin``/``cos`` terms of the time by the symbols ``S``, ``C``.
 
     Returns the rates ``k`` of the arguments ``k t + phi`` (expressions in the parameters; the
-    frequency is ``w = |k|``) and the replacements, which read the sign of the ``j``-th rate
-    from the symbol ``__sg{first + j}``.
+    frequency is ``|k|``) and the replacements, which read the sign of the ``j``-th rate
+    from the symbol ``__sg{first + j}``. Rates equal up to their sign (the same expression, or
+    its negation) share one group and its symbols (:func:`_harmonic_symbols`); ``groups`` (the
+    rate of each group, without sign) is extended with new ones. Without ``groups`` every rate
+    is of group 0 (one forcing frequency).
     """
     rates: list[Expr] = []
     mapping: dict[Expr, Expr] = {}
@@ -161,7 +206,7 @@ def _phase_nodes(
         if fname not in ("sin", "cos") or arg.free - params != {"t"}:
             raise NotAffineError(
                 f"{where}: time enters through `{to_string(node, 80)}`; the exact integrator allows time only "
-                "in sin/cos of one forcing frequency times t (plus a phase)"
+                "in sin/cos of integer multiples of one forcing frequency times t (plus a phase)"
             )
         k = diff(arg, "t")
         if k.free - params or (k.op == "num" and k.args[0] == 0.0):
@@ -169,7 +214,14 @@ def _phase_nodes(
         phi = substitute(arg, {"t": e_num(0.0)})
         sg = sym(f"__sg{first + len(rates)}")
         rates.append(k)
-        s, c = sym(_S), sym(_C)
+        g = 0
+        if groups is not None:
+            key = k.args[0] if k.op == "neg" else k
+            if key not in groups:
+                groups.append(key)
+            g = groups.index(key)
+        s_name, c_name = _harmonic_symbols(g)
+        s, c = sym(s_name), sym(c_name)
         cphi, sphi = e_call("cos", phi), e_call("sin", phi)
         # sin(sg w t + phi) = cos(phi) sg S + sin(phi) C;  cos(sg w t + phi) = cos(phi) C - sin(phi) sg S
         if fname == "sin":
@@ -182,6 +234,10 @@ def _phase_nodes(
 
 def _shown(text: str) -> str:
     return text.replace(_S, "sin(w t)").replace(_C, "cos(w t)")
+
+
+#: Largest distance of a ratio of forcing frequencies from an integer that counts as that integer.
+HARMONIC_TOL = 1e-12
 
 
 def affine_coefficients(e: Expr, symbols: list[str], params: frozenset, where: str) -> list[Expr]:
@@ -243,6 +299,7 @@ class _ModeForm:
     a: np.ndarray
     q: np.ndarray
     rates: list[int]  # positions of this mode's forcing rates among the analysis' rates
+    groups: list[int]  # the groups of those rates (distinct up to sign), in the order of their S, C in u
     F: np.ndarray  # (nd, nu + 1) rows of the derivatives over [u, 1]
     G: np.ndarray  # (na, nu + 1) rows of the algebraic equations
     Wu: np.ndarray  # (ng, nu + 1) rows of the guards
@@ -279,6 +336,8 @@ class AffineAnalysis:
         self._where: dict[Expr, int] = {ZERO: 0}
         self._rates: list[Expr] = []
         self._rate_mode: list[str] = []
+        self._groups: list[Expr] = []  # distinct forcing rates (up to sign): one S, C pair each in u
+        self._rate_group: list[int] = []
         self.forms: list[_ModeForm] = []
         for name, names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
             self.forms.append(
@@ -308,16 +367,19 @@ class AffineAnalysis:
         a = np.array(alg_idx, dtype=int)
         q = np.array(sorted(qset), dtype=int)
         exprs = [f_expr[i] for i in diff_idx] + [g_expr[i] for i in a] + [e for _, e in guards]
-        rates, mapping = _phase_nodes(exprs, where, pset, len(self._rates))
+        rates, mapping = _phase_nodes(exprs, where, pset, len(self._rates), self._groups)
         first = len(self._rates)
         self._rates += rates
         self._rate_mode += [name] * len(rates)
+        rate_groups = [self._groups.index(k.args[0] if k.op == "neg" else k) for k in rates]
+        self._rate_group += rate_groups
+        groups = sorted(set(rate_groups))
         pset = pset | {f"__sg{j}" for j in range(first, len(self._rates))}
 
         def sub(e: Expr) -> Expr:
             return replace_nodes(e, mapping) if mapping else e
 
-        symbols = names + ([_S, _C] if rates else [])
+        symbols = names + [sym_ for g in groups for sym_ in _harmonic_symbols(g)]
 
         def row(e: Expr, what: str) -> list[int]:
             return [self._pos(c) for c in affine_coefficients(sub(e), symbols, pset, f"{where}: {what}")]
@@ -344,16 +406,18 @@ class AffineAnalysis:
         W = np.array([row(e, f"guard `{gname}`") for gname, e in guards], dtype=int).reshape(
             len(guards), nu + 1
         )
-        return _ModeForm(name, tuple(names), d, a, q, list(range(first, len(self._rates))), F, G, W, Qu)
+        return _ModeForm(
+            name, tuple(names), d, a, q, list(range(first, len(self._rates))), groups, F, G, W, Qu
+        )
 
     def evaluate(self, values) -> list[tuple]:
-        """``(omega, d, a, q, M, P, Q, W)`` of every mode at the parameter vector ``values``.
+        """``(omega, d, a, q, M, P, Q, W, harmonics)`` of every mode at the parameter vector ``values``.
 
         Raises
         ------
         NotAffineError
-            Forcing at a zero frequency or at different frequencies, or slave
-            variables not determined by the algebraic equations, at these values.
+            Forcing at a zero frequency or at frequencies that are not integer multiples of the
+            lowest, or slave variables not determined by the algebraic equations, at these values.
         """
         v = [float(x) for x in values]
         key = tuple(v)
@@ -373,42 +437,62 @@ class AffineAnalysis:
     def _evaluate(self, v: list[float]) -> list[tuple]:
         signs: list[float] = []
         omegas: list[float | None] = [None] * len(self.forms)
+        harmonics: list[tuple] = [(1,)] * len(self.forms)
+        pairs: list[list[int]] = [[0] * len(form.groups) for form in self.forms]
         if self._rate_fn is not None:
             rates = self._rate_fn(v)
+            group_w: dict[int, float] = {}
             for j, k in enumerate(rates):
                 where = f"mode `{self._rate_mode[j]}`"
                 if k == 0.0 or not math.isfinite(k):
                     raise NotAffineError(f"{where}: the forcing frequency is {k!r} at these parameter values")
                 signs.append(1.0 if k > 0 else -1.0)
+                group_w.setdefault(self._rate_group[j], abs(k))
+            base = min(group_w.values())  # the base frequency: every other an integer multiple of it
+            multiple = {}
+            for g, w in group_w.items():
+                n = round(w / base)
+                if abs(w / base - n) > HARMONIC_TOL * n:
+                    mode = self._rate_mode[self._rate_group.index(g)]
+                    raise NotAffineError(
+                        f"mode `{mode}`: forcing frequencies {base!r} and {w!r} rad/s are not integer multiples "
+                        f"of one base frequency (ratio {w / base:.15g}); the exact integrator handles sums of "
+                        "harmonics of one frequency"
+                    )
+                multiple[g] = n
             for m, form in enumerate(self.forms):
-                for j in form.rates:
-                    w = abs(rates[j])
-                    if omegas[m] is None:
-                        omegas[m] = w
-                    elif not math.isclose(w, omegas[m], rel_tol=1e-15):
-                        raise NotAffineError(
-                            f"mode `{form.name}`: two forcing frequencies ({omegas[m]!r} and {w!r} rad/s); "
-                            "the exact integrator handles one"
-                        )
+                if form.groups:
+                    omegas[m] = base
+                    harmonics[m] = tuple(sorted({multiple[g] for g in form.groups}))
+                    pairs[m] = [harmonics[m].index(multiple[g]) for g in form.groups]
         vals = self._const.copy()
         if self._fn is not None:
             vals[self._dyn] = self._fn(v + signs)
-        return [_assemble(form, vals, omegas[m]) for m, form in enumerate(self.forms)]
+        return [_assemble(form, vals, omegas[m], harmonics[m], pairs[m]) for m, form in enumerate(self.forms)]
 
 
-def _assemble(form: _ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
-    """``(omega, d, a, q, M, P, Q, W)`` of one mode from the coefficient values."""
+def _assemble(
+    form: _ModeForm, vals: np.ndarray, omega: float | None, harmonics: tuple = (1,), pairs=(0,)
+) -> tuple:
+    """``(omega, d, a, q, M, P, Q, W, harmonics)`` of one mode from the coefficient values.
+
+    ``harmonics``: the multiples ``n`` of ``omega`` in the mode's forcing, one pair
+    ``S_n, C_n`` each in ``z``; ``pairs[i]``: the pair of the ``i``-th group of rates of the
+    mode (the ``i``-th ``S, C`` in ``u``; groups of equal frequency share a pair).
+    """
     where = f"mode `{form.name}`"
     d, a, q = form.d, form.a, form.q
     n = len(form.names)
-    nf = 2 if omega is not None else 0
-    nu = n + nf
+    nf = 2 * len(harmonics) if omega is not None else 0
+    nu = n + 2 * len(form.groups)
     F, G = vals[form.F], vals[form.G]
-    # u over z = [y_d, S, C, 1]: differential rows are z, slave rows from the algebraic equations.
+    # u over z = [y_d, S_1, C_1, ..., 1]: differential rows are z, slave rows from the algebraic equations.
     nz = d.size + nf + 1
     Pu = np.zeros((nu + 1, nz))
     Pu[d, np.arange(d.size)] = 1.0
-    Pu[n + np.arange(nf), d.size + np.arange(nf)] = 1.0
+    if omega is not None:
+        for i, pair in enumerate(pairs):
+            Pu[n + 2 * i + np.arange(2), d.size + 2 * pair + np.arange(2)] = 1.0
     Pu[nu, nz - 1] = 1.0
     if a.size:
         Ga = G[:, a]
@@ -420,12 +504,13 @@ def _assemble(form: _ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
     M = np.zeros((nz, nz))
     M[: d.size] = F @ Pu
     if omega is not None:
-        k = d.size
-        M[k, k + 1] = omega  # S' = w C
-        M[k + 1, k] = -omega  # C' = -w S
+        for j, m in enumerate(harmonics):
+            k = d.size + 2 * j
+            M[k, k + 1] = m * omega  # S_m' = m w C_m (m = 1: exactly w)
+            M[k + 1, k] = -m * omega  # C_m' = -m w S_m
     Q = np.array([Pu.T @ vals[Qj] @ Pu for Qj in form.Qu]).reshape(q.size, nz, nz)
     W = vals[form.Wu] @ Pu
-    return omega, d, a, q, M, Pu[:n], Q, W
+    return omega, d, a, q, M, Pu[:n], Q, W, tuple(harmonics)
 
 
 def _mode_equations(cm: CompiledMode) -> tuple:
@@ -534,7 +619,9 @@ def affine_system(cs: CompiledSystem) -> list[AffineMode]:
     except NotAffineError:
         pass
     quads = tuple(cs.system.quadratures)
-    out = [affine_mode(cm, quads) for cm in cs.modes]
+    # the modes together, so that one base frequency holds for all (a mode forced at 2 w only)
+    flat = AffineAnalysis([_mode_equations(cm) for cm in cs.modes], quads, ()).evaluate(())
+    out = [AffineMode(cm, *f) for cm, f in zip(cs.modes, flat, strict=True)]
     _check_one_frequency(out)
     return out
 

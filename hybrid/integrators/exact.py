@@ -17,8 +17,6 @@ missed; each root is polished by Newton steps on the exact flow. The fundamental
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
@@ -130,8 +128,7 @@ class ExactModeSolver:
         am = self.am
         if am.omega is not None:
             k = am.d.size
-            z[k] = math.sin(am.omega * t)
-            z[k + 1] = math.cos(am.omega * t)
+            z[k : k + 2 * len(am.harmonics)] = am.forcing(t)
         z[-1] = 1.0
 
     def _result(
@@ -317,8 +314,7 @@ class ExactModeSolver:
         Z = ((e * c) @ fl.V.T).real  # rows z(s_i)
         if am.omega is not None:
             k = am.d.size
-            Z[:, k] = np.sin(am.omega * ts)
-            Z[:, k + 1] = np.cos(am.omega * ts)
+            Z[:, k : k + 2 * len(am.harmonics)] = am.forcing_columns(ts)
         Z[:, -1] = 1.0
         Y = Z @ am.P.T
         if am.q.size:
@@ -391,11 +387,10 @@ class ExactSensitivity:
         fl = am.flow()
         z0 = am.augment(t0, y0)
         dz0 = np.zeros_like(z0)
-        if am.omega is not None:  # the forcing phase w t0 of the start
+        if am.omega is not None:  # the forcing phases n w t0 of the start
             dw = (plus.omega - minus.omega) / (2.0 * delta)
             k = am.d.size
-            dz0[k] = t0 * math.cos(am.omega * t0) * dw
-            dz0[k + 1] = -t0 * math.sin(am.omega * t0) * dw
+            dz0[k : k + 2 * len(am.harmonics)] = am.forcing_rate(t0, dw)
         dM = (plus.M - minus.M) / (2.0 * delta)
         dP = (plus.P - minus.P) / (2.0 * delta)
         E = fl.matrix(h)

@@ -61,8 +61,8 @@ def _jump(a: AffineMode, b: AffineMode, R_y: np.ndarray, r0: np.ndarray) -> np.n
     """``J`` with ``z_b = J z_a`` at a switch with the affine reset ``y+ = R_y y- + r0`` (None
     where the forcing parts of the two modes differ)."""
     nfa, nfb = a.nz - a.d.size, b.nz - b.d.size
-    if nfa != nfb:
-        return None  # one mode forced, the other not: S and C are not linear in the switch time
+    if nfa != nfb or a.harmonics != b.harmonics:
+        return None  # the forcing parts differ (one mode forced, the other not; other harmonics)
     L = R_y @ a.P
     L[:, -1] += r0  # the last component of z is the constant 1
     J = np.zeros((b.nz, a.nz))

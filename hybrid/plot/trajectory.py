@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 
 from ..engine.record import Envelope
 from ..engine.trajectory import Trajectory
-from ..model.plot_hints import plot_hints
+from ..model.plot_hints import plot_hints, unit_of
 
 __all__ = ["plot_trajectory", "plot_orbit", "trajectory_figure", "orbit_figure"]
 
@@ -29,6 +29,18 @@ def _label(traj: Trajectory, name: str) -> str:
     units = {v.name: v.unit for v in traj.system.variables}
     unit = units.get(name) or plot_hints(traj.system).get("units", {}).get(name, "")
     return f"{name} [{unit}]" if unit else name
+
+
+def _parameter_line(system, params) -> str:
+    """``m1 = 1 kg, c1 = 1 N/m, ...``: the parameter values with their units, wrapped to two lines at most."""
+    import textwrap
+
+    def one(k: str, v: float) -> str:
+        u = unit_of(system, k)
+        return f"{k} = {v:g}" + (f" {u}" if u else "")
+
+    lines = textwrap.wrap(", ".join(one(k, v) for k, v in params.items()), 150)
+    return "\n".join(lines[:2]) + (" ..." if len(lines) > 2 else "")
 
 
 def _new_figure(figsize: tuple[float, float], layout: str | None = "constrained") -> Figure:
@@ -149,7 +161,7 @@ def trajectory_figure(
         ax.set_ylabel("displacement")
         ax.grid(alpha=0.3)
         ax.legend(loc="upper left", fontsize=8)
-    params = ", ".join(f"{k}={v:g}" for k, v in traj.params.items())
+    params = _parameter_line(system, traj.params)
     fig.suptitle(f"{system.title or system.name}\n{params}", fontsize=10)
     return fig
 
@@ -262,7 +274,7 @@ def orbit_figure(orbit) -> Figure:
     ax_m.grid(alpha=0.3)
     ax_m.legend(loc="upper right", fontsize=8, framealpha=0.9)
 
-    params = ", ".join(f"{k}={v:g}" for k, v in orbit.params.items())
+    params = _parameter_line(orbit.system, orbit.params)
     fig.suptitle(
         f"{system.title or system.name}: periodic orbit, T = {orbit.period:.6g} s, "
         f"{orbit.transitions_per_period} switches per period\n{params}",
