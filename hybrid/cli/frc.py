@@ -22,8 +22,8 @@ from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
 from ..engine.io import csv_cell, to_json, write_rows_csv
-from ..model.linear import linear_response
-from ..model.plot_hints import plot_hints
+from ..model.linear import linear_response, natural_frequencies
+from ..model.plot_hints import plot_hints, unit_of
 from ..model.registry import resolve_model
 from ..model.system import HybridSystem
 from .common import (
@@ -132,11 +132,21 @@ def frc_text(fr, preset: str | None) -> str:
     system = fr.system
     par = fr.parameter
     lo, hi = fr.p_range
+    unit = unit_of(system, par)
+    initial = natural_frequencies(system, fr.params) if len(fr.resonances) else fr.resonances
+    whose = "the linearised initial mode"
+    if len(fr.resonances) and not len(initial):
+        mode = next(
+            m
+            for m in plot_hints(system)["linear_references"].values()
+            if len(natural_frequencies(system, fr.params, m))
+        )
+        whose = f"mode `{mode}` linearised (the initial mode has none)"
     lines = [
         f"{system.name}"
         + (f", preset `{preset}`" if preset else "")
-        + f": {par} from {lo:.6g} to {hi:.6g} rad/s",
-        "  natural frequencies of the linearised initial mode: "
+        + f": {par} from {lo:.6g} to {hi:.6g} {unit}".rstrip(),
+        f"  natural frequencies of {whose}: "
         + (", ".join(f"{w:.6g}" for w in fr.resonances) or "none")
         + " rad/s",
     ]

@@ -38,13 +38,12 @@ from dataclasses import replace
 
 from ..core.budget import deadline_passed, time_limit
 from ..core.options import ContinuationOptions, ShootingOptions, SolverOptions
-from ..model.linear import natural_frequencies
 from ..model.system import HybridSystem
 from ..orbits.orbit import PeriodicOrbit
 from ..orbits.shooting import shoot_orbit
 from .branch import Branch, forcing_parameter
 from .forced import continue_orbits
-from .frc import _cuts, default_range
+from .frc import _cuts, default_range, resonances
 
 __all__ = ["find_by_continuation", "anchors", "FRACTIONS", "MAX_POINTS", "FALLBACK_SECONDS"]
 
@@ -71,7 +70,7 @@ def anchors(system: HybridSystem, params: Mapping[str, float]) -> list[float]:
         If the initial mode linearised at the zero state has no natural frequency.
     """
     lo, hi = default_range(system, params)
-    w = natural_frequencies(system, params)
+    w = resonances(system, params)
     pts = {lo, hi}
     for a, b, _ in _cuts(lo, hi, w):
         pts.update((a, b))

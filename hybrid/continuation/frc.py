@@ -26,6 +26,7 @@ from ..core.errors import InputError, WorkerError
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus, ResponseStatus
 from ..model.linear import natural_frequencies
+from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem, shared
 from .branch import Branch, forcing_parameter
 from .forced import continue_orbits
@@ -36,19 +37,37 @@ __all__ = ["FrequencyResponse", "frequency_response", "default_range"]
 RANGE_FACTORS = (0.8, 1.2)
 
 
+def resonances(system: HybridSystem, params: Mapping[str, float]) -> np.ndarray:
+    """The natural frequencies a frequency response is centred on and cut between [rad/s].
+
+    Those of the initial mode linearised at the zero state; where it has none (e.g. every friction
+    contact stuck to the ground: nothing moves), those of the first of the model's linear
+    references (its ``linear_references`` plot hint, e.g. every contact sliding) that has some.
+    """
+    w = natural_frequencies(system, params)
+    if w.size:
+        return w
+    for mode in plot_hints(system).get("linear_references", {}).values():
+        w = natural_frequencies(system, params, mode)
+        if w.size:
+            return w
+    return w
+
+
 def default_range(system: HybridSystem, params: Mapping[str, float]) -> tuple[float, float]:
-    """``(0.8 min, 1.2 max)`` of the natural frequencies of the initial mode at the zero state [rad/s].
+    """``(0.8 min, 1.2 max)`` of the natural frequencies of :func:`resonances` [rad/s].
 
     Raises
     ------
     ValueError
-        If that linearisation has no oscillating mode.
+        If the linearisations have no oscillating mode.
     """
-    w = natural_frequencies(system, params)
+    w = resonances(system, params)
     if w.size == 0:
         raise InputError(
             f"model `{system.name}`: its initial mode linearised at the zero state has no natural "
-            "frequency to centre the range on; give the range (--omega-range A B)"
+            "frequency to centre the range on (nor have its linear references); give the range "
+            "(--omega-range A B)"
         )
     return RANGE_FACTORS[0] * float(w[0]), RANGE_FACTORS[1] * float(w[-1])
 
@@ -99,7 +118,8 @@ class FrequencyResponse:
         depends on).
     p_range : tuple of float
     resonances : ndarray
-        Natural frequencies of the linearised initial mode [rad/s].
+        Natural frequencies of the linearised initial mode [rad/s] (where it has none, of the
+        model's first linear reference that has: :func:`resonances`).
     pieces : list of Piece
     status : ResponseStatus
         ``"complete"`` (every part of the range covered, every branch with a point) or
@@ -324,7 +344,7 @@ def frequency_response(
         raise InputError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
     if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise InputError(f"`workers` must be an integer >= 1, got {workers!r}")
-    res = natural_frequencies(system, params)
+    res = resonances(system, params)
     out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
     cuts = _cuts(lo, hi, res)
     job = _PieceJob(system, dict(params), parameter, options, settings)
