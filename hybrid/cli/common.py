@@ -150,7 +150,7 @@ def add_work_limits(p: argparse.ArgumentParser) -> None:
         choices=INTEGRATORS,
         default="ida",
         help="ida (default, any model) or exact (matrix exponentials: models affine in the state, "
-        "forced at one frequency)",
+        "forced by harmonics of one base frequency)",
     )
 
 
