@@ -113,7 +113,7 @@ def cmd_orbit(args) -> int:
     system = resolve_model(args.model)
     spp = samples_per_period(args)
     preset, params = parameters(system, args)
-    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
+    mode0 = args.mode0 if args.mode0 is not None else system.default_mode
     if mode0 is None:
         raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
     system.mode(mode0)  # unknown mode -> ModelError

@@ -535,7 +535,7 @@ def continue_orbits(
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
         raise InputError(f"`p_range` must be two different finite numbers, got {p_range!r}")
     start_params = system.parameter_values({**dict(params), parameter: a})
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)

@@ -127,6 +127,15 @@ class Run:
             )
         return s
 
+    def noises(self, cm, t: float, y: np.ndarray) -> np.ndarray | None:
+        """The noise level of every guard of ``cm`` at once (see :meth:`noise`), where the mode
+        offers it in one call (a mode of a system with components); else None."""
+        fn = getattr(cm, "guard_noise_scale", None)
+        if fn is None:
+            return None
+        scale = self.atol + self.opt.rtol * np.abs(y)
+        return self.opt.guard_noise * fn(t, y, scale) + 1e-14
+
     def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
         grad, _ = cm.guard_gradient(k, t, y)
         scale = self.atol + self.opt.rtol * np.abs(y)
@@ -147,10 +156,9 @@ class Run:
         out = {o: np.empty(t.size) for o in self.cs.system.outputs}
         if not out:
             return out
-        for k, cm in enumerate(self.cs.modes):
+        for k in np.unique(m).tolist():
+            cm = self.cs.modes[k]
             idx = np.flatnonzero(m == k)
-            if not idx.size:
-                continue
             vals = cm.outputs_at(t[idx], y[idx])
             if vals is not None:
                 for o, v in zip(out, vals, strict=True):
@@ -211,10 +219,11 @@ class Run:
             vals = cm.guard_values(t, y)
             fire, disarmed = None, {}
             series_at = None  # the guards' Taylor series along the flow from (t, y), made if a guard needs it
+            etas = self.noises(cm, t, y)
             for g in cm.guards:
                 h = vals[g.index]
                 d = g.direction
-                eta = self.noise(cm, g.index, t, y)
+                eta = etas[g.index] if etas is not None else self.noise(cm, g.index, t, y)
                 if abs(h) <= eta:
                     if series_at is None:
                         series_at = self.integ.guard_series(self.cs, mode, t, y, self.opt.taylor_order)
@@ -228,7 +237,7 @@ class Run:
                     fire = g
                     break
             if fire is None:
-                halt = self.cs.system.mode(cm.name).halt
+                halt = cm.halt
                 if halt:
                     raise _Stop(Status.HALTED, f"halted at t={t!r} in mode `{cm.name}`: {halt}")
                 if not np.all(np.isfinite(y)):
@@ -246,7 +255,7 @@ class Run:
             # state is a loop.
             loop = any(m == target and np.allclose(ym, y_new, rtol=1e-13, atol=1e-15) for m, ym in visited)
             if loop or len(visited) > self.opt.max_chain:
-                path = " -> ".join([self.cs.modes[m].name for m, _ in visited] + [self.cs.modes[target].name])
+                path = " -> ".join([self.cs.mode_name(m) for m, _ in visited] + [self.cs.mode_name(target)])
                 if target == mode:
                     raise _Stop(
                         Status.ZENO,
@@ -317,7 +326,7 @@ class Run:
         self.rec = recorder
         self.start: tuple[float, np.ndarray, int] | None = None
         t, y, mode = self.t0, y0, mode0
-        start_mode = self.cs.modes[mode0].name
+        start_mode = self.cs.mode_name(mode0)
         status, message = Status.COMPLETED, "reached the end of the time span"
         reason = ""  # the budget's kind, if one stopped the run
         self.budget = Budget(self.opt, self.t0, self.t1)
@@ -605,12 +614,11 @@ class Run:
             if status >= 0:
                 status, message = stop.status, stop.message
         ts, ys, ms, outputs = self.rec.finish(float(t))
-        names = np.array([m.name for m in cs.modes], dtype=object)
         streamed = self.rec.sink is not None
         traj = Trajectory(
             t=ts,
             y=ys,
-            mode=names[ms] if ms.size else np.array([], dtype=object),
+            mode=cs.mode_names_of(ms),
             names=cs.names,
             outputs=outputs,
             events=tuple(self.rec.events),
@@ -623,7 +631,7 @@ class Run:
             system=cs.system,
             t_final=float(t),
             y_final=np.array(y, dtype=float),
-            mode_final=cs.modes[mode].name,
+            mode_final=cs.mode_name(mode),
             t_start=self.t0,
             mode_start=start_mode,
             start_values=start_values,

@@ -175,7 +175,7 @@ def simulate(
     if isinstance(max_transitions, bool) or not isinstance(max_transitions, int) or max_transitions < 0:
         raise InputError(f"`max_transitions` must be an integer >= 0, got {max_transitions!r}")
     _check_sink(sink, keep_last)
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(
             f"`mode0` is required: model `{system.name}` declares no initial mode; modes: {', '.join(system.mode_names)}"
@@ -244,7 +244,7 @@ def run_compiled(
     check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
     recorder = Recorder(
         len(cs.names),
-        [m.name for m in cs.modes],
+        cs.mode_names_of,
         run.outputs if outputs else _no_outputs,
         sink,
         keep_last,

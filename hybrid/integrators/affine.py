@@ -51,7 +51,6 @@ __all__ = [
     "affine_flows",
     "affine_mode",
     "affine_system",
-    "exact_flows",
     "system_analysis",
 ]
 
@@ -234,7 +233,7 @@ def _quadratic(e: Expr, symbols: list[str], params: frozenset, where: str) -> li
 
 
 @dataclass
-class _ModeForm:
+class ModeForm:
     """One mode's affine form: coefficient expressions, as positions in the analysis' value vector."""
 
     name: str
@@ -272,14 +271,17 @@ class AffineAnalysis:
         Naming the mode, the equation and the first non-affine term.
     """
 
-    def __init__(self, modes, quadratures: tuple[str, ...], params: tuple[str, ...]):
+    def __init__(
+        self, modes, quadratures: tuple[str, ...], params: tuple[str, ...], forcing: bool | None = None
+    ):
         self.params = tuple(params)
+        self._forcing = forcing  # None: per mode, as its equations say; True/False: every mode alike
         pset = frozenset(params)
         self._values: list[Expr] = [ZERO]  # position 0: zero
         self._where: dict[Expr, int] = {ZERO: 0}
         self._rates: list[Expr] = []
         self._rate_mode: list[str] = []
-        self.forms: list[_ModeForm] = []
+        self.forms: list[ModeForm] = []
         for name, names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
             self.forms.append(
                 self._form(name, list(names), diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset)
@@ -301,12 +303,12 @@ class AffineAnalysis:
             self._values.append(e)
         return k
 
-    def _form(self, name, names, diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset) -> _ModeForm:
+    def _form(self, name, names, diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset) -> ModeForm:
         where = f"mode `{name}`"
         qset = {names.index(q) for q in quadratures if q in names}
         d = np.array([i for i in diff_idx if i not in qset], dtype=int)
         a = np.array(alg_idx, dtype=int)
-        q = np.array(sorted(qset), dtype=int)
+        q = np.array(sorted(qset & set(diff_idx)), dtype=int)
         exprs = [f_expr[i] for i in diff_idx] + [g_expr[i] for i in a] + [e for _, e in guards]
         rates, mapping = _phase_nodes(exprs, where, pset, len(self._rates))
         first = len(self._rates)
@@ -317,7 +319,8 @@ class AffineAnalysis:
         def sub(e: Expr) -> Expr:
             return replace_nodes(e, mapping) if mapping else e
 
-        symbols = names + ([_S, _C] if rates else [])
+        forced = bool(rates) if self._forcing is None else self._forcing
+        symbols = names + ([_S, _C] if forced else [])
 
         def row(e: Expr, what: str) -> list[int]:
             return [self._pos(c) for c in affine_coefficients(sub(e), symbols, pset, f"{where}: {what}")]
@@ -344,7 +347,7 @@ class AffineAnalysis:
         W = np.array([row(e, f"guard `{gname}`") for gname, e in guards], dtype=int).reshape(
             len(guards), nu + 1
         )
-        return _ModeForm(name, tuple(names), d, a, q, list(range(first, len(self._rates))), F, G, W, Qu)
+        return ModeForm(name, tuple(names), d, a, q, list(range(first, len(self._rates))), F, G, W, Qu)
 
     def evaluate(self, values) -> list[tuple]:
         """``(omega, d, a, q, M, P, Q, W)`` of every mode at the parameter vector ``values``.
@@ -371,6 +374,18 @@ class AffineAnalysis:
         return hit
 
     def _evaluate(self, v: list[float]) -> list[tuple]:
+        vals, omegas = self.coefficients(v)
+        return [assemble_form(form, vals, omegas[m]) for m, form in enumerate(self.forms)]
+
+    def coefficients(self, v: list[float]) -> tuple[np.ndarray, list[float | None]]:
+        """The values of every coefficient at the parameter vector ``v``, and each form's forcing
+        frequency [rad/s] (None where its equations have none).
+
+        Raises
+        ------
+        NotAffineError
+            Forcing at a zero frequency, or a form forced at two frequencies.
+        """
         signs: list[float] = []
         omegas: list[float | None] = [None] * len(self.forms)
         if self._rate_fn is not None:
@@ -393,10 +408,10 @@ class AffineAnalysis:
         vals = self._const.copy()
         if self._fn is not None:
             vals[self._dyn] = self._fn(v + signs)
-        return [_assemble(form, vals, omegas[m]) for m, form in enumerate(self.forms)]
+        return vals, omegas
 
 
-def _assemble(form: _ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
+def assemble_form(form: ModeForm, vals: np.ndarray, omega: float | None) -> tuple:
     """``(omega, d, a, q, M, P, Q, W)`` of one mode from the coefficient values."""
     where = f"mode `{form.name}`"
     d, a, q = form.d, form.a, form.q
@@ -537,22 +552,3 @@ def affine_system(cs: CompiledSystem) -> list[AffineMode]:
     out = [affine_mode(cm, quads) for cm in cs.modes]
     _check_one_frequency(out)
     return out
-
-
-def exact_flows(cs: CompiledSystem) -> list[AffineMode]:
-    """Every mode of ``cs`` as an exact affine flow (:func:`affine_system`), analysed once per
-    parameter set (kept in ``cs.derived`` until its parameters change).
-
-    Raises
-    ------
-    NotAffineError
-        Naming the model, the first mode and the term that is not affine.
-    """
-    hit = cs.derived.get("exact_flows")
-    if hit is None:
-        try:
-            hit = affine_system(cs)
-        except ValueError as exc:
-            raise type(exc)(f"model `{cs.system.name}`: {exc}") from None
-        cs.derived["exact_flows"] = hit
-    return hit

@@ -26,8 +26,9 @@ from ..core.errors import InputError, NotAffineError
 from ..core.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
-from .affine import AffineMode, affine_flows, exact_flows
+from .affine import AffineMode, affine_flows
 from .base import ROOT, SUCCESS, TSTOP, Integrator, StepResult
+from .flows import exact_flows
 
 __all__ = ["ExactIntegrator", "ExactModeSolver", "ExactSensitivity", "ExactVariational", "TAYLOR_DEGREE"]
 

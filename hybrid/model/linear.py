@@ -51,7 +51,7 @@ def reduced_jacobian(
         The differential variables of ``A``, in state order.
     A : ndarray, shape (n, n)
     """
-    mode = mode if mode is not None else system.initial_mode
+    mode = mode if mode is not None else system.default_mode
     if mode is None:
         raise InputError(f"model `{system.name}` declares no initial mode: name the mode to linearise")
     cs = CompiledSystem(system, params)

@@ -277,7 +277,7 @@ def autonomous_orbit(
     check_orbit_inputs(system, options, settings, forced=False)
     samples_per_period = settings.samples_per_period
     phase = resolve_phase(system, phase)
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..core.errors import GrazingSwitchError
 from ..engine.trajectory import DeferredTrajectory, Trajectory
-from ..integrators.affine import exact_flows
+from ..integrators.flows import exact_flows
 from .orbit import (
     PeriodicOrbit,
     balanced,

@@ -326,7 +326,9 @@ def test_parameter_out_of_domain_when_an_iteration_leaves_the_domain():
 
 
 def test_sample_cap_reached_when_a_run_records_too_many_samples():
-    rec = Recorder(1, ["m"], lambda t, y, m: {}, max_kept=2, max_total=2)
+    rec = Recorder(
+        1, lambda m: np.full(np.shape(m), "m", dtype=object), lambda t, y, m: {}, max_kept=2, max_total=2
+    )
     rec.add(0.0, np.zeros(1), 0)
     rec.add(1.0, np.zeros(1), 0)
     with pytest.raises(

@@ -1,0 +1,404 @@
+"""A system with components, compiled once for all its modes: :class:`ComposedForm`, :class:`ComposedMode`.
+
+A system with components has as many modes as combinations of its components' local modes
+(``3**k`` for ``k`` contacts), so its modes are never enumerated, and entering a mode never seen
+before generates no code. Every row of the DAE is written once for all modes as a sum over the
+alternatives of its owner (the system's own mode for the variables no component owns, the
+component's local mode for its own variables), each weighted by an *indicator* that is 1 for the
+owner's current mode and 0 otherwise::
+
+    F_i = sum_l  [part in mode l] * R_{l,i},    R_{l,i} = y'_i - f_{l,i}   (differential in l)
+                                                R_{l,i} = g_{l,i}          (algebraic in l)
+
+and so is every guard slot (a component's ``s``-th transition out of its current local mode, or
+the constant 1 where that mode has fewer). The residual, the non-zero entries of ``dF/dy``, the
+time derivatives of the rows, all guard slots and their gradients are each one generated
+function of ``[t, y (, y'), indicators]``, compiled when the system is; a mode is the list of its
+indicators (:class:`ComposedMode`, a view with the interface of
+:class:`hybrid.model.compiled.CompiledMode`), made in microseconds per mode.
+
+Terms of the alternatives that are not selected are evaluated too (and multiplied by 0): an
+alternative must be finite wherever the system's state may be.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .codegen import compile_many
+from .expr import ZERO, Expr, add, diff, free_symbols, mul, num, sub, substitute, sym
+from .guard import CompiledGuard
+from .modebase import ModeMethods
+
+__all__ = ["ComposedForm", "ComposedMode", "Slot"]
+
+#: Prefixes of the generated functions' slots (not valid model names: no clash).
+_YP = " yp"
+_IND = " ind"
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One transition as it sits in a guard slot: its part, source local mode, and data.
+
+    Attributes
+    ----------
+    part : int
+        0 for the system's own modes, ``1 + c`` for component ``c``.
+    local : int
+        Index of the source mode among the part's modes.
+    slot : int
+        Position among all guard slots.
+    transition : int
+        Position of the transition in ``system.transitions`` (own) or ``component.transitions``.
+    name : str
+        Its name in event logs (``component.transition`` for a component's).
+    target_local : int
+        Index of the target mode among the part's modes.
+    direction : int
+    expr : Expr
+        The guard, parameters folded.
+    reset_expr : tuple of (int, Expr)
+        The reset, by state index.
+    """
+
+    part: int
+    local: int
+    slot: int
+    transition: int
+    name: str
+    target_local: int
+    direction: int
+    expr: Expr
+    reset_expr: tuple
+
+
+class ComposedForm:
+    """Every mode of a system with components, compiled once for one parameter set.
+
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping of str to float
+        Checked parameter values.
+    free : tuple of str
+        Parameters appended to the state (zero derivative), as for
+        :class:`hybrid.model.compiled.CompiledMode`.
+    runtime : tuple of str
+        Parameters read at call time from ``namespace``.
+    namespace : dict
+        The compiled system's run-time namespace.
+    """
+
+    def __init__(self, system, params, free: tuple[str, ...], runtime: tuple[str, ...], namespace: dict):
+        self.system = system
+        self._ns = namespace
+        self._runtime = tuple(runtime)
+        names = tuple(system.variable_names) + tuple(free)
+        self.names = names
+        self.n = n = len(names)
+        index = {nm: i for i, nm in enumerate(names)}
+        pconst = {k: num(v) for k, v in params.items() if k not in free and k not in runtime}
+
+        def fold(e: Expr) -> Expr:
+            return substitute(e, pconst)
+
+        parsed = system.parsed
+        # The parts: the own modes (part 0), then each component; per part its modes' row data.
+        own = [parsed.modes[m.name] for m in system.modes]
+        comps = list(parsed.components)
+        self.part_modes: list[list[dict]] = [own] + [
+            [cd["modes"][m.name] for m in c.modes] for c, cd in zip(system.components, comps, strict=True)
+        ]
+        self.part_names = [tuple(m.name for m in system.modes)] + [c.mode_names for c in system.components]
+        # Indicator slots: one per (part, local mode) where a part has more than one mode.
+        self.ind_pos: list[list[int | None]] = []
+        count = 0
+        for modes in self.part_modes:
+            if len(modes) > 1:
+                self.ind_pos.append(list(range(count, count + len(modes))))
+                count += len(modes)
+            else:
+                self.ind_pos.append([None])
+        self.n_ind = count
+        ind_syms = [f"{_IND}{k}" for k in range(count)]
+
+        def weight(part: int, local: int, e: Expr) -> Expr:
+            pos = self.ind_pos[part][local]
+            return e if pos is None else mul(sym(ind_syms[pos]), e)
+
+        # Owner of each row, and its role in each of the owner's modes.
+        owner = np.zeros(n, dtype=int)  # part
+        for c, cd in enumerate(comps):
+            for v in cd["owned"]:
+                owner[index[v]] = 1 + c
+        self.owner = owner
+        nfree = len(free)
+        # role[i][local] = True (differential) / False (algebraic)
+        self.alt: list[list[tuple[bool, Expr]]] = [[] for _ in range(n)]
+        for i, nm in enumerate(names):
+            if i >= n - nfree:  # a free parameter: y' = 0 in every mode
+                self.alt[i] = [(True, ZERO)] * len(self.part_modes[0])
+                continue
+            for md in self.part_modes[owner[i]]:
+                if nm in md["derivatives"]:
+                    self.alt[i].append((True, fold(md["derivatives"][nm])))
+                else:
+                    self.alt[i].append((False, fold(md["algebraic"][nm])))
+        # Rows of the residual, one expression each for every mode.
+        res_slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
+        res_slots.update({f"{_YP}{i}": n + 1 + i for i in range(n)})
+        res_slots.update({s: 2 * n + 1 + k for k, s in enumerate(ind_syms)})
+        slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
+        slots.update({s: n + 1 + k for k, s in enumerate(ind_syms)})
+        self._slots = slots
+        rows: list[Expr] = []
+        grows: list[Expr] = []  # the same without y' (dF/dy, dF/dt)
+        for i in range(n):
+            part = 0 if i >= n - nfree else owner[i]
+            terms, gterms = [], []
+            for local, (is_d, e) in enumerate(self.alt[i]):
+                r = sub(sym(f"{_YP}{i}"), e) if is_d else e
+                g = mul(num(-1.0), e) if is_d else e
+                terms.append(weight(part, local, r))
+                gterms.append(weight(part, local, g))
+            rows.append(_sum(terms))
+            grows.append(_sum(gterms))
+        self.res = compile_many(rows, res_slots, "residual", namespace=namespace)
+        # dF/dy: every entry that may be non-zero in some mode, as one function.
+        terms: list[tuple[int, int, Expr]] = []
+        for i, e in enumerate(grows):
+            for nm in sorted(free_symbols(e) & index.keys(), key=index.__getitem__):
+                d = diff(e, nm)
+                if not (d.op == "num" and d.args[0] == 0.0):
+                    terms.append((i, index[nm], d))
+        self.jac_terms = terms
+        self.jac = (
+            compile_many([d for _, _, d in terms], slots, "jacobian", namespace=namespace) if terms else None
+        )
+        self.jac_at = (
+            np.array([i for i, _, _ in terms], dtype=int),
+            np.array([j for _, j, _ in terms], dtype=int),
+        )
+        self.rows_t = compile_many([diff(e, "t") for e in grows], slots, "rows_t", namespace=namespace)
+        # Guard slots: the own modes' transitions first, then each component's.
+        transitions = [list(enumerate(zip(system.transitions, parsed.transitions, strict=True)))] + [
+            list(enumerate(zip(c.transitions, cd["transitions"], strict=True)))
+            for c, cd in zip(system.components, comps, strict=True)
+        ]
+        self.slot_of: list[list[list[Slot]]] = []  # [part][local] -> its slots
+        self.part_slots: list[range] = []
+        nslot = 0
+        for part, modes in enumerate(self.part_modes):
+            names_p = self.part_names[part]
+            out: list[list[Slot]] = [[] for _ in modes]
+            for k, (tr, td) in transitions[part]:
+                src, tgt = names_p.index(tr.source), names_p.index(tr.target)
+                label = tr.name if part == 0 else f"{system.components[part - 1].name}.{tr.name}"
+                reset = tuple((index[v], fold(e)) for v, e in td["reset"].items())
+                out[src].append(Slot(part, src, -1, k, label, tgt, tr.direction, fold(td["guard"]), reset))
+            width = max((len(s) for s in out), default=0)
+            self.part_slots.append(range(nslot, nslot + width))
+            self.slot_of.append([[replace(s, slot=nslot + j) for j, s in enumerate(lst)] for lst in out])
+            nslot += width
+        self.n_slots = nslot
+        slot_exprs: list[Expr] = []
+        for part, modes in enumerate(self.part_modes):
+            for j in range(len(self.part_slots[part])):
+                terms = []
+                for local in range(len(modes)):
+                    lst = self.slot_of[part][local]
+                    e = lst[j].expr if j < len(lst) else num(1.0)  # no such transition: never crosses
+                    terms.append(weight(part, local, e))
+                slot_exprs.append(_sum(terms))
+        self.slot_exprs = slot_exprs
+        self.guards_fn = (
+            compile_many(slot_exprs, slots, "guards", namespace=namespace) if slot_exprs else None
+        )
+        gterms: list[tuple[int, int, Expr]] = []
+        for s, e in enumerate(slot_exprs):
+            for nm in sorted(free_symbols(e) & index.keys(), key=index.__getitem__):
+                d = diff(e, nm)
+                if not (d.op == "num" and d.args[0] == 0.0):
+                    gterms.append((s, index[nm], d))
+        self.guard_grad = (
+            compile_many([d for _, _, d in gterms], slots, "guard_gradients", namespace=namespace)
+            if gterms
+            else None
+        )
+        self.guard_grad_at = (
+            np.array([s for s, _, _ in gterms], dtype=int),
+            np.array([j for _, j, _ in gterms], dtype=int),
+        )
+        # Outputs: definitions of the own modes.
+        self.outputs = []
+        self.outputs_vec = []
+        for md in own:
+            exprs = [fold(md["defs"][o]) for o in system.outputs]
+            plain = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
+            self.outputs.append(
+                {
+                    o: compile_many([e], plain, namespace=namespace, scalar=True)
+                    for o, e in zip(system.outputs, exprs, strict=True)
+                }
+            )
+            self.outputs_vec.append(
+                compile_many(exprs, plain, "outputs", namespace=namespace, vector=True) if exprs else None
+            )
+        self._guards: dict[tuple[int, int, int], object] = {}  # compiled guards by (part, local, j)
+        self.halts = [[md.get("halt", "") for md in modes] for modes in self.part_modes]
+        own_halts = [m.halt for m in system.modes]
+        self.halts[0] = own_halts
+
+    def indicators(self, key: tuple[int, ...]) -> list[float]:
+        """The indicator values of the mode ``key`` (one local mode index per part)."""
+        out = [0.0] * self.n_ind
+        for part, local in enumerate(key):
+            pos = self.ind_pos[part][local]
+            if pos is not None:
+                out[pos] = 1.0
+        return out
+
+
+def _sum(terms: list[Expr]) -> Expr:
+    out = terms[0]
+    for e in terms[1:]:
+        out = add(out, e)
+    return out
+
+
+class ComposedMode(ModeMethods):
+    """One mode of a system with components: its indicators and the shared generated functions,
+    behind the interface of :class:`hybrid.model.compiled.CompiledMode` (built without compiling:
+    microseconds). Created by :class:`hybrid.model.compiled.CompiledSystem`."""
+
+    def __init__(self, cs, form: ComposedForm, key: tuple[int, ...], index: int):
+        self.form = form
+        self.key = key
+        self.index = index
+        self.name = cs.system.mode_label(key)
+        self.names = form.names
+        self.n = n = form.n
+        ind = form.indicators(key)
+        self._ind = ind
+        self._runtime = form._runtime
+        self._ns = form._ns
+        self._params = cs.params
+        owner = form.owner
+        is_diff = np.zeros(n, dtype=bool)
+        f_expr: dict[int, Expr] = {}
+        g_expr: dict[int, Expr] = {}
+        nfree = len(cs.free)
+        for i in range(n):
+            part = 0 if i >= n - nfree else owner[i]
+            local = 0 if i >= n - nfree else key[part]
+            d, e = form.alt[i][local]
+            is_diff[i] = d
+            (f_expr if d else g_expr)[i] = e
+        self.is_diff = is_diff
+        self.diff_idx = np.flatnonzero(is_diff)
+        self.alg_idx = np.flatnonzero(~is_diff)
+        self.f_expr = f_expr
+        self.g_expr = g_expr
+        self._f_pos = self.diff_idx
+        res, jac, guards = form.res, form.jac, form.guards_fn
+        self._res_fn = lambda v: res([*v, *ind])
+        self._jac_fn = (lambda v: jac([*v, *ind])) if jac is not None else None
+        self._guards_fn = (lambda v: guards([*v, *ind])) if guards is not None else None
+        self._jac_at = form.jac_at
+        self.jac_terms = form.jac_terms
+        self.jac_base = np.zeros((n, n))
+        self.cj_mask = np.diag(is_diff.astype(float))
+        self._gzz_inv = None
+        self._ix_ad = np.ix_(self.alg_idx, self.diff_idx)
+        self._ix_aa = np.ix_(self.alg_idx, self.alg_idx)
+        rows_t = form.rows_t
+        alg = self.alg_idx
+        self.g_t = [(int(i), (lambda v, i=int(i): rows_t([*v, *ind])[i])) for i in alg]
+        self._rows_t = lambda v: rows_t([*v, *ind])
+        # Guards: one per slot, the part's transition where its mode has one, else never firing.
+        guards_out = []
+        for part, local in enumerate(key):
+            lst = form.slot_of[part][local]
+            for j, slot in enumerate(form.part_slots[part]):
+                if j < len(lst):
+                    g = _compiled_guard(cs, form, lst[j])
+                    tkey = key[:part] + (lst[j].target_local,) + key[part + 1 :]
+                    guards_out.append(replace(g, index=slot, target=cs.intern(tkey)))
+                else:
+                    guards_out.append(_never(slot))
+        self.guards = tuple(guards_out)
+        self.outputs = form.outputs[key[0]]
+        self._outputs_vec = form.outputs_vec[key[0]]
+        halts = [form.halts[part][local] for part, local in enumerate(key)]
+        self.halt = "; ".join(h for h in halts if h)
+
+    def guard_noise_scale(self, t: float, y: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """``sum_j |dh_s/dy_j| scale_j`` for every guard slot ``s`` (one call for all)."""
+        out = np.zeros(self.form.n_slots)
+        fn = self.form.guard_grad
+        if fn is None:
+            return out
+        vals = np.abs(np.asarray(fn([t, *np.asarray(y, dtype=float).tolist(), *self._ind]), dtype=float))
+        s, j = self.form.guard_grad_at
+        np.add.at(out, s, vals * scale[j])
+        return out
+
+
+def _never(slot: int) -> CompiledGuard:
+    """A guard that never fires (a slot the part's current mode does not use)."""
+    return CompiledGuard(
+        index=slot,
+        transition=-1,
+        name="",
+        target=-1,
+        direction=0,
+        expr=num(1.0),
+        fn=_one,
+        grad=(),
+        grad_t=_zero,
+        reset=(),
+        reset_expr=(),
+    )
+
+
+def _one(v) -> float:
+    return 1.0
+
+
+def _zero(v) -> float:
+    return 0.0
+
+
+def _compiled_guard(cs, form: ComposedForm, s: Slot) -> CompiledGuard:
+    """The compiled guard of a slot's transition, made once per transition."""
+    hit = form._guards.get((s.part, s.local, s.slot))
+    if hit is not None:
+        return hit
+    slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(form.names)}}
+
+    def comp(e: Expr):
+        return compile_many([e], slots, namespace=form._ns, scalar=True)
+
+    index = {nm: i for i, nm in enumerate(form.names)}
+    grad = tuple(
+        (index[nm], comp(diff(s.expr, nm)))
+        for nm in sorted(free_symbols(s.expr) & index.keys(), key=index.__getitem__)
+    )
+    g = CompiledGuard(
+        index=s.slot,
+        transition=s.transition,
+        name=s.name,
+        target=-1,
+        direction=s.direction,
+        expr=s.expr,
+        fn=comp(s.expr),
+        grad=grad,
+        grad_t=comp(diff(s.expr, "t")),
+        reset=tuple((i, comp(e)) for i, e in s.reset_expr),
+        reset_expr=s.reset_expr,
+    )
+    form._guards[(s.part, s.local, s.slot)] = g
+    return g
