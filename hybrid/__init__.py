@@ -6,16 +6,11 @@ transitions and resets. :func:`simulate` integrates it event-driven, with the
 slave (algebraic) variables of each mode solved as a DAE by IDA.
 """
 
-from hybrid.continuation.branch import Branch as Branch
-from hybrid.continuation.branch import forcing_parameter as forcing_parameter
-from hybrid.model.elements import Mode as Mode
-from hybrid.model.elements import Parameter as Parameter
-from hybrid.model.elements import Transition as Transition
-from hybrid.model.elements import Variable as Variable
-
 from .continuation.autonomous import equilibrium_branch as equilibrium_branch
 from .continuation.autonomous import hopf_branch as hopf_branch
 from .continuation.autonomous import orbit_branch as orbit_branch
+from .continuation.branch import Branch as Branch
+from .continuation.branch import forcing_parameter as forcing_parameter
 from .continuation.forced import SpecialPoint as SpecialPoint
 from .continuation.forced import continue_orbits as continue_orbits
 from .continuation.frc import FrequencyResponse as FrequencyResponse
@@ -57,6 +52,10 @@ from .engine.simulate import simulate as simulate
 from .engine.trajectory import Status as Status
 from .engine.trajectory import Trajectory as Trajectory
 from .engine.trajectory import TransitionRecord as TransitionRecord
+from .model.elements import Mode as Mode
+from .model.elements import Parameter as Parameter
+from .model.elements import Transition as Transition
+from .model.elements import Variable as Variable
 from .model.expr import FUNCTIONS as FUNCTIONS
 from .model.filippov import filippov_system as filippov_system
 from .model.loader import load_system as load_system
@@ -78,3 +77,76 @@ from .studies.sweep import load_sweep as load_sweep
 from .studies.sweep import log_axis as log_axis
 from .studies.sweep import model_hash as model_hash
 from .studies.sweep import sweep as sweep
+
+__all__ = [
+    "AlgebraicSolveError",
+    "autonomous_orbit",
+    "Axis",
+    "Branch",
+    "BranchStatus",
+    "BudgetExceeded",
+    "ContinuationOptions",
+    "continue_orbits",
+    "ConvergenceError",
+    "Envelope",
+    "Equilibrium",
+    "equilibrium",
+    "equilibrium_branch",
+    "EventsCSVWriter",
+    "ExpressionError",
+    "filippov_system",
+    "forcing_parameter",
+    "frequency_response",
+    "FrequencyResponse",
+    "FUNCTIONS",
+    "GrazingSwitchError",
+    "hopf_branch",
+    "HopfPoint",
+    "HybridError",
+    "HybridSystem",
+    "initial_state",
+    "InputError",
+    "InputTypeError",
+    "IntegratorError",
+    "linear_axis",
+    "load_sweep",
+    "load_system",
+    "locate_hopf",
+    "log_axis",
+    "Mode",
+    "model_hash",
+    "ModelError",
+    "NewtonOptions",
+    "NotAffineError",
+    "orbit_branch",
+    "ORBIT_OPTIONS",
+    "Parameter",
+    "ParameterOutOfDomain",
+    "periodic_orbit",
+    "PeriodicOrbit",
+    "plot_hints",
+    "PointStatus",
+    "ProgressBar",
+    "resolve_model",
+    "ResponseStatus",
+    "SampleCapReached",
+    "ShootingOptions",
+    "simulate",
+    "SimulationError",
+    "Sink",
+    "SolverOptions",
+    "SolveStatus",
+    "SpecialPoint",
+    "Status",
+    "sweep",
+    "SweepResult",
+    "system_from_dict",
+    "Tee",
+    "time_limit",
+    "Trajectory",
+    "TrajectoryCSVWriter",
+    "Transition",
+    "TransitionRecord",
+    "Variable",
+    "WorkerError",
+]

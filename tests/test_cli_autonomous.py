@@ -4,6 +4,8 @@ import csv
 import json
 import math
 
+import pytest
+
 from hybrid.cli import main
 
 
@@ -20,12 +22,14 @@ def test_orbit_of_an_autonomous_model(tmp_path, capsys):
     d, vb = 0.5, 0.3  # the standard preset: m = k = 1, Fs = 1, Fk = 0.5
     T = 2 * d / vb + math.pi + 2 * math.atan(vb / d)
     assert abs(data["period"] / T - 1) <= 1e-7
-    assert "trivial" in data["multiplier_kinds"] and data["converged"]
+    assert "trivial" in data["multiplier_kinds"]
+    assert data["converged"]
     assert (tmp_path / "orbit.png").stat().st_size > 0
     code, out, _ = run(["orbit", "belt", "--set", "v_b=0.3", "--out", str(tmp_path), "--no-plot"], capsys)
     assert "the period is an unknown" in out
 
 
+@pytest.mark.slow
 def test_cont_finds_the_hopf_point_and_its_branch(tmp_path, capsys):
     code, out, err = run(
         ["cont", "belt_stribeck", "--param", "v_b", "--range", "1.0", "1.3", "--out", str(tmp_path)], capsys
@@ -34,16 +38,21 @@ def test_cont_finds_the_hopf_point_and_its_branch(tmp_path, capsys):
     v_star = 0.5 * math.log(0.5 / (0.5 * 0.1))  # vs ln((Fs - Fk)/(vs (c + cf))), the standard preset
     summary = json.loads((tmp_path / "cont.json").read_text())
     (hopf,) = [c for e in summary["equilibria"] for c in e["special"]]
-    assert hopf["kind"] == "hopf" and abs(hopf["value"] - v_star) <= 1e-10
-    assert hopf["status"] == "located" and hopf["interval"][0] <= hopf["value"] <= hopf["interval"][1]
+    assert hopf["kind"] == "hopf"
+    assert abs(hopf["value"] - v_star) <= 1e-10
+    assert hopf["status"] == "located"
+    assert hopf["interval"][0] <= hopf["value"] <= hopf["interval"][1]
     assert abs(hopf["frequency"] - 1.0) <= 1e-10  # sqrt(k/m)
     (branch,) = summary["orbit_branches"]
-    assert branch["start"] == "hopf" and branch["status"] == "completed" and branch["reason"] == ""
+    assert branch["start"] == "hopf"
+    assert branch["status"] == "completed"
+    assert branch["reason"] == ""
     assert branch["message"].startswith("left the range at v_b=")
     assert f"hopf at v_b = {hopf['value']:.12g}" in out
     rows = list(csv.DictReader(open(tmp_path / "cont.csv")))
     orbits = [r for r in rows if r["kind"] == "hopf"]
-    assert orbits and all(r["stability"] == "unstable" for r in orbits)
+    assert orbits
+    assert all(r["stability"] == "unstable" for r in orbits)
     assert all(1.0 <= float(r["parameter"]) for r in orbits)
     assert (tmp_path / "cont.png").stat().st_size > 0
 
@@ -52,23 +61,29 @@ def test_cont_refuses_bad_input(tmp_path, capsys):
     code, _, err = run(
         ["cont", "belt", "--param", "nope", "--range", "0", "1", "--out", str(tmp_path)], capsys
     )
-    assert code == 2 and "no parameter `nope`" in err
+    assert code == 2, err
+    assert "no parameter `nope`" in err
     code, _, err = run(
         ["cont", "belt", "--param", "v_b", "--range", "1", "1", "--out", str(tmp_path)], capsys
     )
-    assert code == 2 and "--range" in err
+    assert code == 2, err
+    assert "--range" in err
     code, _, err = run(
         ["cont", "belt", "--param", "v_b", "--range", "-1", "1", "--out", str(tmp_path)], capsys
     )
-    assert code == 2 and "v_b" in err
+    assert code == 2, err
+    assert "v_b" in err
     code, _, err = run(
         ["cont", "coulomb", "--param", "F", "--range", "0", "1", "--out", str(tmp_path)], capsys
     )
-    assert code == 2 and "periodically forced" in err
+    assert code == 2, err
+    assert "periodically forced" in err
 
 
 def test_frc_of_an_autonomous_model_points_to_cont(tmp_path, capsys):
     code, out, err = run(["frc", "belt", "--out", str(tmp_path)], capsys)
-    assert code == 2 and out == ""
-    assert "declares no forcing `period`" in err and "hybrid cont belt --param NAME --range A B" in err
+    assert code == 2, err
+    assert out == ""
+    assert "declares no forcing `period`" in err
+    assert "hybrid cont belt --param NAME --range A B" in err
     assert "Traceback" not in err

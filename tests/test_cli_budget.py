@@ -62,7 +62,8 @@ def test_simulate_out_of_steps_exits_1_and_writes_its_files(capsys, tmp_path):
     assert reason(err).startswith("hybrid: simulation stopped early: step limit reached: ")
     assert "--max-steps" in err
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["status"] == "STEP_LIMIT" and summary["message"].startswith("step limit reached")
+    assert summary["status"] == "STEP_LIMIT"
+    assert summary["message"].startswith("step limit reached")
 
 
 def test_tiny_masses_stop_quickly_saying_why(capsys, tmp_path):
@@ -75,6 +76,7 @@ def test_tiny_masses_stop_quickly_saying_why(capsys, tmp_path):
     assert "times the forcing frequency (dynamics far faster than the forcing" in line
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "argv",
     [

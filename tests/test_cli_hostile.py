@@ -34,7 +34,8 @@ def test_model_name_cannot_direct_output_outside_out(name, tmp_path, monkeypatch
     before = set(tmp_path.rglob("*"))
     code, out, err = run(["simulate", str(path), "--t-end", "1"], capsys)
     assert code == 2
-    assert err.startswith("hybrid: error: evil.toml: model name ") and err.count("\n") == 1
+    assert err.startswith("hybrid: error: evil.toml: model name ")
+    assert err.count("\n") == 1
     assert set(tmp_path.rglob("*")) == before  # nothing written anywhere
     assert not Path("/tmp/hybrid-abs-escape").exists()
 
@@ -70,7 +71,8 @@ def test_two_files_with_one_model_name_write_to_two_folders(tmp_path, monkeypatc
     soft = json.loads((out / "soft" / "summary.json").read_text())
     stiff = json.loads((out / "stiff" / "summary.json").read_text())
     assert soft["model"] == stiff["model"] == "coulomb"
-    assert soft["parameters"]["k"] == 1.0 and stiff["parameters"]["k"] == 4.0
+    assert soft["parameters"]["k"] == 1.0
+    assert stiff["parameters"]["k"] == 4.0
 
 
 @pytest.mark.parametrize("stem", ["..", "."])
@@ -80,7 +82,8 @@ def test_a_file_stem_that_is_no_folder_inside_out_is_refused(stem, tmp_path, mon
     path = tmp_path / f"{stem}.toml"
     path.write_text(text)
     code, stdout, err = run(["simulate", str(path), "--t-end", "1"], capsys)
-    assert code == 2 and stdout == ""
+    assert code == 2, err
+    assert stdout == ""
     assert "does not name a folder inside out/" in err and err.count("\n") == 1, err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 

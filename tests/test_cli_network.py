@@ -20,7 +20,8 @@ def test_show_prints_the_network_and_the_modes_and_transitions_of_two_friction_e
     code, out, err = run(["show", str(MODEL_DIR / "absorber_two_friction.toml")], capsys)
     assert code == 0, err
     assert out.startswith("network `absorber_two_friction`")
-    assert "u --]||[-- x2" in out and "ground --]||[-- x1" in out
+    assert "u --]||[-- x2" in out
+    assert "ground --]||[-- x1" in out
     assert "7 variables, 9 modes, 24 transitions, initial mode stick_stick" in out
     mode_rows = [
         line.split() for line in out.splitlines() if line.startswith("  s") and "_" in line.split()[0]
@@ -52,7 +53,8 @@ def test_orbit_of_a_network_file_by_path(tmp_path, capsys):
     )
     assert code == 0, err
     orbit = json.loads(out)
-    assert orbit["model"] == "coulomb_network" and orbit["converged"]
+    assert orbit["model"] == "coulomb_network"
+    assert orbit["converged"]
     assert set(orbit["mode_sequence"]) == {"stick", "slip+", "slip-"}
 
 
@@ -73,9 +75,11 @@ def test_show_draws_the_network_of_a_network_file_and_refuses_a_mode_level_model
     png = tmp_path / "net.png"
     code, out, err = run(["show", str(MODEL_DIR / "isolator_base.toml"), "--out", str(png)], capsys)
     assert code == 0, err
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.stat().st_size > 5000
     assert f"wrote {png}" in err
     code, out, err = run(["show", "coulomb", "--out", str(tmp_path / "c.png")], capsys)
-    assert code == 2 and out == ""
+    assert code == 2, err
+    assert out == ""
     assert err == "hybrid: error: model `coulomb` is not a network file: there is no network to draw\n"
     assert not (tmp_path / "c.png").exists()

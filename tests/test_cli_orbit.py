@@ -43,8 +43,12 @@ def test_orbit_pure_stick_matches_the_linear_closed_form(tmp_path, capsys):
     assert code == 0, err
     d = json.loads(out)
     assert ORBIT_KEYS <= set(d)
-    assert d["omega"] == 0.5 and d["parameters"]["Omega"] == 0.5 and d["parameters"]["R"] == 0.5
-    assert d["converged"] and d["transitions_per_period"] == 0 and d["mode_fractions"] == {"stick": 1.0}
+    assert d["omega"] == 0.5
+    assert d["parameters"]["Omega"] == 0.5
+    assert d["parameters"]["R"] == 0.5
+    assert d["converged"]
+    assert d["transitions_per_period"] == 0
+    assert d["mode_fractions"] == {"stick": 1.0}
     assert d["mode_sequence"] == ["stick"]
     assert math.isclose(d["period"], 2 * math.pi / 0.5, rel_tol=1e-12)
     a1, a2 = stick_amplitudes(hybrid_models.absorber().preset("standard", Omega=0.5))
@@ -54,9 +58,11 @@ def test_orbit_pure_stick_matches_the_linear_closed_form(tmp_path, capsys):
     mu = np.array([complex(re_, im) for re_, im in d["multipliers"]])
     kinds = d["multiplier_kinds"]
     assert np.allclose(np.abs(mu[[k != "structural" for k in kinds]]), 1.0, atol=1e-6)
-    assert d["stable"] is None and d["stability"] == "neutral"
+    assert d["stable"] is None
+    assert d["stability"] == "neutral"
     rows = list(csv.reader((tmp_path / "orbit.csv").open()))
-    assert rows[0][:3] == ["t [s]", "mode", "x1 [m]"] and "H [N]" in rows[0]
+    assert rows[0][:3] == ["t [s]", "mode", "x1 [m]"]
+    assert "H [N]" in rows[0]
     t = np.array([float(r[0]) for r in rows[1:]])
     assert math.isclose(t[-1] - t[0], d["period"], rel_tol=1e-12)
     assert (tmp_path / "orbit.png").stat().st_size > 0
@@ -84,7 +90,8 @@ def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
     )
     assert code == 0, err
     d = json.loads(out)
-    assert d["converged"] and d["residual"] < 1e-8
+    assert d["converged"]
+    assert d["residual"] < 1e-8
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.854)
     assert d["parameters"] == p
@@ -97,7 +104,8 @@ def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
         options=SolverOptions(integrator="exact"),
         settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0),
     )
-    assert ex.converged and ex.residual <= 1e-12, ex.message
+    assert ex.converged, ex.message
+    assert ex.residual <= 1e-12, ex.message
     assert d["mode_sequence"] == list(ex.mode_sequence)
     assert d["transitions_per_period"] == len(ex.switch_times)
     assert np.max(np.abs(np.array(d["switch_times"]) - ex.switch_times)) <= 1e-6
@@ -105,7 +113,8 @@ def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
         assert abs(d["amplitude"][k] - ex.amplitude[k]) <= 2.5e-7 * ex.amplitude[k], k
     mu = np.array([complex(a, b) for a, b in d["multipliers"]])
     assert np.max(np.abs(np.sort_complex(mu) - np.sort_complex(ex.multipliers))) <= 1e-7
-    assert d["stable"] is (ex.stability == "stable") and d["stability"] == ex.stability
+    assert d["stable"] is (ex.stability == "stable")
+    assert d["stability"] == ex.stability
     assert max(d["multiplier_moduli"]) == pytest.approx(np.max(np.abs(ex.multipliers)), abs=1e-7)
     # the sequence stick, slip+, stick, slip-, stick: D = R (w_max - w_min) twice
     assert d["mode_sequence"] == ["stick", "slip+", "stick", "slip-", "stick"]
@@ -142,6 +151,7 @@ def test_orbit_text_summary(tmp_path, capsys):
     assert "model `absorber`, preset `standard`" in err
 
 
+@pytest.mark.slow
 def test_orbit_without_bounded_solution_exits_1(tmp_path, capsys):
     # Coulomb oscillator forced at resonance with F/R = 5 > 4/pi: the response grows without bound.
     code, out, err = run(
@@ -151,7 +161,8 @@ def test_orbit_without_bounded_solution_exits_1(tmp_path, capsys):
     d = json.loads(out)
     assert d["converged"] is False
     assert "no bounded periodic orbit" in d["message"]
-    assert "hybrid: no periodic orbit: " in err and "Traceback" not in err
+    assert "hybrid: no periodic orbit: " in err
+    assert "Traceback" not in err
     assert not (tmp_path / "orbit.csv").exists()
 
 
@@ -206,6 +217,7 @@ def test_bad_option_values_exit_2(argv, capsys):
     assert "Traceback" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
     # Upper end of the absorber's stick-slip band at the second resonance (about 6 s).
     code, out, err = run(
@@ -213,8 +225,11 @@ def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
     )
     assert code == 0, err
     d = json.loads(out)
-    assert d["complete"] and d["omega_range"] == [1.1715, 1.1735] and d["gaps"] == []
-    assert d["parameters"]["R"] == 0.5 and "Omega" not in d["parameters"]
+    assert d["complete"]
+    assert d["omega_range"] == [1.1715, 1.1735]
+    assert d["gaps"] == []
+    assert d["parameters"]["R"] == 0.5
+    assert "Omega" not in d["parameters"]
     for name in ("frc.csv", "frc_special.csv", "frc_overlays.csv", "frc.png", "frc.json"):
         assert (tmp_path / name).stat().st_size > 0, name
 
@@ -236,7 +251,8 @@ def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
     n_sw = np.array([int(r["transitions_per_period"]) for r in rows])
     a1 = np.array([float(r["amplitude_x1"]) for r in rows])
     stuck = n_sw == 0
-    assert stuck.any() and (n_sw == 4).any()
+    assert stuck.any()
+    assert (n_sw == 4).any()
     # stuck orbits are the linear stick response; stick-slip orbits lie above the limit A_L (Eq. 5)
     assert np.allclose(a1[stuck], np.abs(stick_amplitudes(p, w[stuck])[0]), rtol=1e-6)
     assert np.all(a1[~stuck] > limit_amplitude("absorber", p, w[~stuck]))
@@ -259,5 +275,6 @@ def test_frc_small_range_through_the_end_of_a_stick_slip_band(tmp_path, capsys):
     limit_col = "structural-change limit A_L (Eq. 5): x1"
     assert {"Omega", stick_col, limit_col} <= set(overlays[0])
     wo = np.array([float(r["Omega"]) for r in overlays])
-    assert wo[0] == 1.1715 and wo[-1] == 1.1735
+    assert wo[0] == 1.1715
+    assert wo[-1] == 1.1735
     assert np.allclose([float(r[limit_col]) for r in overlays], limit_amplitude("absorber", p, wo))

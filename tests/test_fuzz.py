@@ -22,9 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import hybrid_models
-from hybrid import ModelError, SolverOptions, load_system, simulate, system_from_dict
+from hybrid import FUNCTIONS, ModelError, SolverOptions, load_system, simulate, system_from_dict
 from hybrid.cli import main
-from hybrid.model.expr import FUNCTIONS
 
 MODEL_DIR = Path(hybrid_models.__file__).parent
 BASES = {name: tomllib.loads((MODEL_DIR / f"{name}.toml").read_text()) for name in ("coulomb", "absorber")}
@@ -156,6 +155,7 @@ def _try_run(system) -> str:
     return "ran" if tr.success else "run failed"
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=400)
 @given(mutated_models())
 def test_fuzz_structured_model_edits_end_in_a_model_or_a_clean_error(data):
@@ -191,6 +191,7 @@ def mutated_texts(draw) -> bytes:
     return text
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=300)
 @given(mutated_texts())
 def test_fuzz_model_file_bytes_end_in_a_model_or_a_clean_error(tmp_path_factory, text):
@@ -249,6 +250,7 @@ def cli_arguments(draw, out: str) -> list[str]:
     return argv
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=150)
 @given(data=st.data())
 def test_fuzz_cli_arguments_end_in_exit_code_0_1_2_without_traceback(tmp_path_factory, data):

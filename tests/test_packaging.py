@@ -17,12 +17,14 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 
 def test_the_models_folder_installs_as_hybrid_models():
     tool = PYPROJECT["tool"]["setuptools"]
-    assert "models" not in tool["packages"] and "hybrid_models" in tool["packages"]
+    assert "models" not in tool["packages"]
+    assert "hybrid_models" in tool["packages"]
     assert tool["package-dir"] == {"hybrid_models": "models"}
     assert tool["package-data"] == {"hybrid_models": ["*.toml"]}
     # the installed package carries every model file of the folder
     shipped = {p.name for p in (ROOT / "models").glob("*.toml")}
-    assert shipped and {p.name for p in Path(hybrid_models.__file__).parent.glob("*.toml")} == shipped
+    assert shipped
+    assert {p.name for p in Path(hybrid_models.__file__).parent.glob("*.toml")} == shipped
     assert hybrid_models.coulomb().name == "coulomb"
 
 
@@ -34,7 +36,9 @@ def test_entry_points_name_hybrid_models_and_load():
         installed = {ep.name: ep for ep in entry_points(group=group)}
         for name, target in entries.items():
             assert installed[name].value == target, (group, name)
-            assert installed[name].load() is not None
+            module, _, attr = target.partition(":")
+            named = importlib.import_module(module)
+            assert installed[name].load() is (getattr(named, attr) if attr else named), (group, name)
 
 
 def test_no_file_imports_a_top_level_models():

@@ -76,6 +76,7 @@ def test_stick_slip_amplitudes_match_a_dense_tight_resimulation():
         assert o.amplitude[n] == pytest.approx(ref, rel=1e-9), n
 
 
+@pytest.mark.slow
 def test_an_extremum_just_after_a_switch_is_found():
     """The isolator at Omega = 0.8528166 (standard preset): v1 is largest 5.4 ms after the stick -> slip+
     switch, while the largest *sample* is the switch itself. The refinement must look on the slip side

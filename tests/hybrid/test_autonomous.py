@@ -12,9 +12,16 @@ import numpy as np
 import pytest
 
 import hybrid
-from hybrid import HybridSystem, Mode, ModelError, SolverOptions, periodic_orbit, system_from_dict
-from hybrid.orbits.autonomous import autonomous_orbit
-from hybrid.orbits.equilibria import equilibrium
+from hybrid import (
+    HybridSystem,
+    Mode,
+    ModelError,
+    SolverOptions,
+    autonomous_orbit,
+    equilibrium,
+    periodic_orbit,
+    system_from_dict,
+)
 from hybrid.orbits.flowmap import FlowMap
 
 TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
@@ -98,12 +105,14 @@ def test_monodromy_matches_finite_differences():
 
 def test_periodic_orbit_dispatches_to_autonomous():
     orbit = periodic_orbit(stuart_landau(), {"a": 1.0, "w": 2.0}, {"x": 0.5, "y": 0.0}, options=TIGHT)
-    assert orbit.converged and abs(orbit.period - math.pi) <= 1e-9 * math.pi
+    assert orbit.converged, orbit.message
+    assert abs(orbit.period - math.pi) <= 1e-9 * math.pi
 
 
 def test_equilibrium_eigenvalues_of_the_origin():
     eq = equilibrium(stuart_landau(), {"a": -0.5, "w": 2.0}, "one", {"x": 0.1, "y": -0.1})
-    assert eq.converged and np.max(np.abs(eq.x)) <= 1e-12
+    assert eq.converged, eq.message
+    assert np.max(np.abs(eq.x)) <= 1e-12
     ev = sorted(eq.eigenvalues, key=lambda z: z.imag)
     assert np.allclose(ev, [-0.5 - 2j, -0.5 + 2j], rtol=0, atol=1e-12)
     assert eq.stability == "stable"

@@ -16,6 +16,7 @@ import re
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 import hybrid
 from hybrid import (
@@ -54,7 +55,8 @@ def _reference(system, params, start: float):
     om = params["Omega"]
     br = continue_orbits(system, params, "Omega", (start, om), settings=ContinuationOptions(locate=False))
     ps = br.values
-    assert ps.size and (ps.min() - om) * (ps.max() - om) <= 0, br.message  # it passed through om
+    assert ps.size, br.message
+    assert (ps.min() - om) * (ps.max() - om) <= 0, br.message  # it passed through om
     o = br.points[int(np.argmin(np.abs(ps - om)))]
     ref = periodic_orbit(
         system,
@@ -99,7 +101,8 @@ def _check_against_independent_continuation(orbit, system, params) -> None:
     other = w1 * (1 - 5e-4)
     assert (other - params["Omega"]) * (start - params["Omega"]) < 0
     ref = _reference(system, params, other)
-    assert ref.mode_sequence and set(ref.mode_sequence) == set(orbit.mode_sequence)
+    assert ref.mode_sequence
+    assert set(ref.mode_sequence) == set(orbit.mode_sequence)
     assert np.allclose(np.abs(orbit.floquet_multipliers), np.abs(ref.floquet_multipliers), rtol=0, atol=1e-6)
     # at the default rtol 1e-10 each orbit is accurate to about cond(I - M) x rtol
     assert _relative_difference(orbit, ref) <= 10 * max(orbit.condition, ref.condition) * 1e-10
@@ -114,7 +117,8 @@ def _fallback(system, params):
         params,
         settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
     )
-    assert not failed.converged and failed.route == "none"
+    assert not failed.converged
+    assert failed.route == "none"
     o = find_by_continuation(
         system,
         params,
@@ -131,7 +135,8 @@ def _check_cold_start(system, params) -> None:
     """From rest: converged, stable, and the orbit of the fallback and of an independent continuation."""
     cold = periodic_orbit(system, params)
     assert cold.converged, cold.message
-    assert cold.stability == "stable" and cold.transitions_per_period > 0
+    assert cold.stability == "stable"
+    assert cold.transitions_per_period > 0
     assert np.max(np.abs(cold.floquet_multipliers)) < 1
     fb = cold if cold.route != "newton" else _fallback(system, params)
     assert fb.stability == "stable"
@@ -140,6 +145,7 @@ def _check_cold_start(system, params) -> None:
         assert _relative_difference(cold, fb) <= 10 * max(cold.condition, fb.condition) * 1e-10
 
 
+@pytest.mark.slow
 def test_isolator_cold_start_close_to_the_first_peak_finds_the_stable_orbit():
     # issue 7: `hybrid orbit isolator --set R=0.9 --omega 0.85428` failed ("Newton's method did not
     # converge"), though `hybrid frc` passes through a stable stick-slip orbit there
@@ -147,6 +153,7 @@ def test_isolator_cold_start_close_to_the_first_peak_finds_the_stable_orbit():
     _check_cold_start(system, system.preset("standard", R=0.9, Omega=0.85428))
 
 
+@pytest.mark.slow
 def test_absorber_cold_start_at_the_stuck_resonance_finds_the_stable_orbit():
     # the absorber at its first natural frequency (the peak of the stuck system; Newton from the
     # 10-period transient failed there, "an orbit may still exist")
@@ -163,7 +170,9 @@ def test_no_fallback_without_a_transient():
         system.preset("standard"),
         settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(max_iter=1), transient_periods=0),
     )
-    assert not o.converged and o.route == "none" and "fallback" not in o.message
+    assert not o.converged
+    assert o.route == "none"
+    assert "fallback" not in o.message
 
 
 def test_a_failed_fallback_says_what_it_tried(monkeypatch):
@@ -192,11 +201,13 @@ def test_a_failed_fallback_says_what_it_tried(monkeypatch):
         options=hybrid.ORBIT_OPTIONS,
         settings=hybrid.ShootingOptions(samples_per_period=64),
     )
-    assert not o.converged and o.route == "none"
+    assert not o.converged
+    assert o.route == "none"
     assert o.message.startswith(failed.message)
     assert "fallback (continuation in the forcing parameter)" in o.message
     tried = [float(x) for x in re.findall(r"continuation from Omega=([0-9.]+)", o.message)]
-    assert len(tried) == 2 and min(tried) < params["Omega"] < max(tried)  # both sides, once each
+    assert len(tried) == 2
+    assert min(tried) < params["Omega"] < max(tried)  # both sides, once each
 
 
 def test_orbit_json_and_text_say_which_route_found_it(tmp_path, capsys):

@@ -69,8 +69,10 @@ def test_forced_oscillator_and_its_work_integral_are_exact():
     for t in ts:
         r = ex.step(t, 30.0, one_step=False)
         x, v = _exact_response(t, x0, v0, PARAMS)
-        assert r.t == t and r.status != ROOT
-        assert r.y[0] == pytest.approx(x, abs=1e-13) and r.y[1] == pytest.approx(v, abs=1e-13)
+        assert r.t == t
+        assert r.status != ROOT
+        assert r.y[0] == pytest.approx(x, abs=1e-13)
+        assert r.y[1] == pytest.approx(v, abs=1e-13)
     # work: int F sin(W t + phi) v dt, by Simpson on a fine grid of the closed form (error ~1e-13)
     tt = np.linspace(0.0, 25.0, 200_001)
     _, vv = _exact_response(tt, x0, v0, PARAMS)
@@ -87,7 +89,8 @@ def test_interpolation_inside_the_last_call_is_exact():
     for t in (0.1, 3.3, 9.99):
         y, yp = ex.interpolate(t)
         x, v = _exact_response(t, 1.0, 0.0, PARAMS)
-        assert y[0] == pytest.approx(x, abs=1e-13) and yp[0] == pytest.approx(v, abs=1e-13)
+        assert y[0] == pytest.approx(x, abs=1e-13)
+        assert yp[0] == pytest.approx(v, abs=1e-13)
 
 
 @pytest.mark.parametrize(("direction", "angle"), [(-1, math.acos(0.5)), (1, 2 * math.pi - math.acos(0.5))])
@@ -97,7 +100,8 @@ def test_guard_crossing_is_located_to_rounding(direction, angle):
     _, ex = _solver(_oscillator(guard="x - a", direction=direction), p, max_step=10.0)
     ex.start(0.0, np.array([1.0, 0.0, 0.0]), None)
     r = ex.step(20.0, 20.0, one_step=False)
-    assert r.status == ROOT and r.fired == (0,)
+    assert r.status == ROOT
+    assert r.fired == (0,)
     assert r.t == pytest.approx(angle / p["w0"], rel=1e-14)
     assert abs(r.y[0] - 0.5) <= 1e-15
 
@@ -110,14 +114,16 @@ def test_two_crossings_within_one_step_are_not_missed():
     ex.start(0.5, np.array([math.cos(0.5 * p["w0"]), -p["w0"] * math.sin(0.5 * p["w0"]), 0.0]), None)
     r = ex.step(20.0, 20.0, one_step=False)
     expected = (2 * math.pi - math.acos(0.999)) / p["w0"]
-    assert r.status == ROOT and r.t == pytest.approx(expected, rel=1e-13)
+    assert r.status == ROOT
+    assert r.t == pytest.approx(expected, rel=1e-13)
 
 
 def test_step_to_tstop_without_crossing():
     _, ex = _solver(_oscillator(guard="x - 5", direction=0), {**PARAMS})
     ex.start(0.0, np.array([0.1, 0.0, 0.0]), None)
     r = ex.step(50.0, 7.0, one_step=False)
-    assert r.status == TSTOP and r.t == 7.0
+    assert r.status == TSTOP
+    assert r.t == 7.0
 
 
 def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_eliminated():
@@ -129,7 +135,8 @@ def test_absorber_modes_reduce_to_the_linearisation_with_slave_variables_elimina
         assert names == tuple(absorber.variable_names[i] for i in am.d)
         nd = am.d.size
         assert np.allclose(am.M[:nd, :nd], A, rtol=1e-14, atol=1e-14)
-        assert am.omega == 0.854 and am.q.size == 2
+        assert am.omega == 0.854
+        assert am.q.size == 2
 
 
 def test_second_derivatives_of_a_mode_match_the_vector_field_along_the_flow():
@@ -195,6 +202,7 @@ BRANCHES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset", "omegas"), BRANCHES, ids=[b[0] for b in BRANCHES])
 def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     """Exact orbits followed along a branch (each from its neighbour) against IDA at rtol 1e-12 from the
@@ -235,10 +243,13 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
             options=tight,
             settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11), transient_periods=0),
         )
-        assert ref.converged and ex.converged, (om, ref.message, ex.message)
+        assert ref.converged, (om, ref.message, ex.message)
+        assert ex.converged, (om, ref.message, ex.message)
         assert ex.residual <= 1e-12  # the exact map: Newton converges to rounding (IDA's to its tolerance)
-        assert ref.t0 == ex.t0 and ex.mode_sequence == ref.mode_sequence, om
-        assert len(ex.mode_sequence) == 5 and ex.stability == ref.stability == "stable", om
+        assert ref.t0 == ex.t0, om
+        assert ex.mode_sequence == ref.mode_sequence, om
+        assert len(ex.mode_sequence) == 5, om
+        assert ex.stability == ref.stability == "stable", om
         scale = max(abs(v) for v in ref.amplitude.values())
         for k, v in ref.amplitude.items():
             assert abs(ex.amplitude[k] - v) <= 1e-7 * max(abs(v), 1e-3 * scale), (om, k)
@@ -314,7 +325,9 @@ def test_cli_integrator_exact(tmp_path, capsys):
     import json
 
     d = json.loads(out)
-    assert d["converged"] and d["transitions_per_period"] == 4 and d["residual"] <= 1e-12
+    assert d["converged"]
+    assert d["transitions_per_period"] == 4
+    assert d["residual"] <= 1e-12
     bad = tmp_path / "cubic.toml"
     bad.write_text(
         '[model]\nname = "cubic"\nperiod = "2*pi/W"\ninitial_mode = "m"\n[variables.x]\n[variables.v]\n'
@@ -324,7 +337,9 @@ def test_cli_integrator_exact(tmp_path, capsys):
         ["simulate", str(bad), "--integrator", "exact", "--out", str(tmp_path / "o"), "--periods", "1"]
     )
     err = capsys.readouterr().err
-    assert code == 2 and "derivative of `v` is not affine in `x`" in err and err.count("\n") == 1
+    assert code == 2, err
+    assert "derivative of `v` is not affine in `x`" in err
+    assert err.count("\n") == 1
 
 
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
@@ -353,6 +368,7 @@ def test_parameters_read_at_call_time_equal_folded_ones(name):
     del owner
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["absorber", "isolator"])
 def test_a_whole_exact_band_agrees_with_ida(name):
     """The whole first stick-slip band of each damper (standard preset), continued with the exact
@@ -404,7 +420,8 @@ def test_a_whole_exact_band_agrees_with_ida(name):
             assert abs(q.amplitude[k] - v) <= tol * scale, (o.params["Omega"], k, q.condition)
         assert np.max(np.abs(q.switch_times - o.switch_times)) <= tol * o.period
         fe, fq = o.floquet_multipliers, q.floquet_multipliers
-        assert fe.size == fq.size and max(float(np.min(np.abs(fq - z))) for z in fe) <= tol
+        assert fe.size == fq.size
+        assert max(float(np.min(np.abs(fq - z))) for z in fe) <= tol
     assert skipped <= 2
 
 
@@ -442,7 +459,8 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
     o = periodic_orbit(
         system, p, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
     )
-    assert o.converged and o.transitions_per_period == 4, o.message
+    assert o.converged, o.message
+    assert o.transitions_per_period == 4, o.message
     cols = []
     for opts in (SolverOptions(integrator="exact"), tight):
         sh = Shooter(system, p, opts, free="Omega")
@@ -472,7 +490,8 @@ def test_a_simulation_sampled_per_period_runs_on_the_exact_integrator(spp):
         for integ in ("exact", "ida")
     }
     ex, ida = runs["exact"], runs["ida"]
-    assert ex.success and ida.success, (ex.message, ida.message)
+    assert ex.success, (ex.message, ida.message)
+    assert ida.success, (ex.message, ida.message)
     assert ex.t.size == 20 * spp + 1
     np.testing.assert_array_equal(ex.t, ida.t)
     np.testing.assert_allclose(ex["x"], ida["x"], rtol=0, atol=1e-8)
@@ -496,5 +515,6 @@ def test_a_crossing_on_the_boundary_of_two_steps_is_taken(max_step):
         dict.fromkeys(system.variable_names, 0.0),
         options=SolverOptions(integrator="exact", max_step=max_step),
     )
-    assert tr.success and tr.events, tr.message
+    assert tr.success, tr.message
+    assert tr.events, tr.message
     assert abs(tr.events[0].t - t_break) <= 1e-12

@@ -209,7 +209,8 @@ def test_diff_matches_central_finite_differences(text, point):
         scale = max(abs(want), 1e-3 * max(1.0, abs(f(v))))
         assert abs(got - want) <= 1e-7 * scale, (text, name, got, want)
         if name not in free_symbols(e):
-            assert d.op == "num" and d.args[0] == 0.0
+            assert d.op == "num"
+            assert d.args[0] == 0.0
 
 
 def test_diff_of_constants_and_absent_symbols_is_exactly_zero():

@@ -66,13 +66,17 @@ def _relay(**extra):
 def test_expansion_derives_regions_sliding_mode_and_entry():
     s = _relay()
     assert s.mode_names == ("m_+", "m_-", "m_0", "m_0r", "m")
-    assert s.initial_mode is None and s.variable_names == ("x", "v", "sign_1")
+    assert s.initial_mode is None
+    assert s.variable_names == ("x", "v", "sign_1")
     (surf,) = hybrid.model.filippov.surfaces(s)
     assert (surf.h, surf.coefficient, surf.slides, surf.mode) == ("v", "sign_1", True, "m")
     arcs = {(t.source, t.target, t.direction, t.name) for t in s.transitions}
-    assert ("m_+", "m_0", -1, "sign_1:reach") in arcs and ("m_-", "m_0", 1, "sign_1:reach") in arcs
-    assert ("m_0", "m_+", 1, "sign_1:exit+") in arcs and ("m_0", "m_-", -1, "sign_1:exit-") in arcs
-    assert s.mode("m_0r").halt and not s.mode("m_0").halt
+    assert ("m_+", "m_0", -1, "sign_1:reach") in arcs
+    assert ("m_-", "m_0", 1, "sign_1:reach") in arcs
+    assert ("m_0", "m_+", 1, "sign_1:exit+") in arcs
+    assert ("m_0", "m_-", -1, "sign_1:exit-") in arcs
+    assert s.mode("m_0r").halt
+    assert not s.mode("m_0").halt
     # The sliding mode: sign_1 is the slave of 0 = dv/dt; the regions fix it at +-1.
     p = {"k": 2.0, "R": 0.5}
     cs = hybrid.model.compiled.CompiledSystem(s, p)
@@ -206,7 +210,8 @@ def test_coulomb_stick_exits_at_tangency_match_the_closed_form(coulomb_sign, opt
         t_ref = brentq(lambda t: abs(drive(t)) - R, ts[j - 1], ts[j], xtol=1e-15, rtol=1e-15)
         assert abs(e.t - t_ref) <= 1e-9
         assert e.target == ("motion_+" if drive(t_ref) > 0 else "motion_-")
-        assert abs(e.x_minus[0] - x0) <= 1e-12 and abs(e.x_minus[1]) <= 1e-12
+        assert abs(e.x_minus[0] - x0) <= 1e-12
+        assert abs(e.x_minus[1]) <= 1e-12
 
 
 # (Omega, R/F, non-stop): Den Hartog's closed form holds for the non-stop orbits.
@@ -227,13 +232,15 @@ def test_coulomb_orbits_match_the_automaton_and_den_hartog(coulomb, coulomb_sign
     p = coulomb.preset("forced", Omega=W, R=ratio * 0.5)
     oa = periodic_orbit(coulomb, p, options=EXACT)
     ob = periodic_orbit(coulomb_sign, p, options=EXACT)
-    assert oa.converged and ob.converged, (oa.message, ob.message)
+    assert oa.converged, (oa.message, ob.message)
+    assert ob.converged, (oa.message, ob.message)
     assert ob.amplitude["x"] == pytest.approx(oa.amplitude["x"], rel=1e-9)
     assert ob.amplitude["v"] == pytest.approx(oa.amplitude["v"], rel=1e-9)
     # Multipliers: the automaton's two, plus the structural zero of the slave sign_1.
     mu = np.sort_complex(ob.multipliers[np.array(ob.multiplier_kinds) != "structural"])
     assert np.allclose(mu, np.sort_complex(oa.multipliers), rtol=0, atol=1e-9)
-    assert ob.multiplier_kinds.count("structural") == 1 and ob.stability == oa.stability
+    assert ob.multiplier_kinds.count("structural") == 1
+    assert ob.stability == oa.stability
     m, k, R, F = p["m"], p["k"], p["R"], p["F"]
     X = ob.amplitude["x"]
     assert (ob.mode_fractions.get("motion_0", 0.0) == 0.0) == nonstop
@@ -247,7 +254,8 @@ def test_coulomb_orbit_on_ida_matches_the_exact_one(coulomb, coulomb_sign):
     p = coulomb.preset("forced", Omega=1.5, R=0.1)
     ob = periodic_orbit(coulomb_sign, p, options=IDA)
     oe = periodic_orbit(coulomb_sign, p, options=EXACT)
-    assert ob.converged and oe.converged
+    assert ob.converged, ob.message
+    assert oe.converged, oe.message
     assert ob.amplitude["x"] == pytest.approx(den_hartog(1.0, 1.0, 0.1, 0.5, 1.5), rel=1e-8)
     assert np.allclose(np.sort_complex(ob.multipliers), np.sort_complex(oe.multipliers), atol=1e-7)
 
@@ -315,7 +323,8 @@ def test_belt_switches_and_stick_phases(belt_sign, belt_automaton, options, tol,
         x0, t0 = e.x_plus[0], e.t
         t_exit = t0 + ((F - c * vb) / k - x0) / vb
         if i + 1 < len(eb):
-            assert eb[i + 1].source == "motion_0" and eb[i + 1].target == "motion_-"
+            assert eb[i + 1].source == "motion_0"
+            assert eb[i + 1].target == "motion_-"
             assert abs(eb[i + 1].t - t_exit) <= tol * max(1.0, t_exit)
         inside = (tb.mode == "motion_0") & (tb.t > t0) & (tb.t < min(t_exit, span[1]))
         assert np.allclose(tb["x"][inside], x0 + vb * (tb.t[inside] - t0), rtol=0, atol=tol)
@@ -338,7 +347,8 @@ def test_crossing_only_relay_matches_solve_ivp():
         transitions=[],
     )
     (surf,) = hybrid.model.filippov.surfaces(s)
-    assert not surf.slides and "m_0" not in s.mode_names
+    assert not surf.slides
+    assert "m_0" not in s.mode_names
     p = {"z": 0.02, "R": 0.1}
     tr = simulate(s, p, (0.0, 30.0), {"x": 1.0, "v": 0.0}, mode0="m", options=EXACT)
     assert tr.status == Status.COMPLETED
@@ -381,16 +391,19 @@ def test_repulsive_sliding_is_reported_not_integrated():
         transitions=[],
     )
     tr = simulate(two, {}, (0.0, 5.0), {"x": 0.5, "y": 0.0}, mode0="m", options=IDA, throw=False)
-    assert tr.status == Status.HALTED and tr.t_final == 0.0
+    assert tr.status == Status.HALTED
+    assert tr.t_final == 0.0
     assert "repulsive sliding on the surface y = 0 of mode `m`" in tr.message
     # Sliding into a two-fold (y' = x sign(y) from x < 0): the sliding equation is singular
     # there; the run stops at it instead of going on.
     tr = simulate(two, {}, (0.0, 5.0), {"x": -1.0, "y": 0.3}, mode0="m", options=IDA, throw=False)
-    assert tr.status == Status.ALGEBRAIC_FAILED and "singular" in tr.message
+    assert tr.status == Status.ALGEBRAIC_FAILED
+    assert "singular" in tr.message
     assert tr.t_final == pytest.approx(1.0, abs=1e-6)
     for options in (IDA, EXACT):  # x' = b + sign(x) is affine: both integrators
         tr = simulate(one, {"b": 0.5}, (0.0, 1.0), {"x": 0.0}, mode0="m", options=options, throw=False)
-        assert tr.status == Status.HALTED and "repulsive sliding on the surface x = 0" in tr.message
+        assert tr.status == Status.HALTED
+        assert "repulsive sliding on the surface x = 0" in tr.message
         # x' = b + sign(x) with b = -2: the flow crosses x = 0 downwards (orientation repulsive).
         tr = simulate(one, {"b": -2.0}, (0.0, 1.0), {"x": 0.5}, mode0="m", options=options)
         assert tr.final("x") == pytest.approx(-3.0 * 0.5, abs=1e-9)  # x = 0 at t = 0.5, then x' = -3
@@ -408,7 +421,8 @@ def test_sliding_on_two_surfaces_and_intersection_of_three_is_reported():
         modes=[Mode("m", derivatives={"x": "0.5 - sign(x)", "y": "-sign(y)"})],
         transitions=[],
     )
-    assert len(hybrid.model.filippov.surfaces(two)) == 2 and "m_00" in two.mode_names
+    assert len(hybrid.model.filippov.surfaces(two)) == 2
+    assert "m_00" in two.mode_names
     for options in (IDA, EXACT):
         tr = simulate(two, {}, (0.0, 5.0), {"x": 1.0, "y": 0.5}, mode0="m", options=options)
         assert [(e.target, round(e.t, 9)) for e in tr.events if not e.chained] == [
@@ -428,8 +442,10 @@ def test_sliding_on_two_surfaces_and_intersection_of_three_is_reported():
     )
     tr = simulate(three, {}, (0.0, 5.0), {"x": 1.0, "y": 0.5, "z": 4.0}, mode0="m", options=IDA, throw=False)
     assert tr.status == Status.HALTED
-    assert "surfaces y = 0 and x = 0" in tr.message and "intersect" in tr.message
-    assert tr.final("x") == pytest.approx(0.0, abs=1e-9) and tr.t_final == pytest.approx(2.0, abs=1e-9)
+    assert "surfaces y = 0 and x = 0" in tr.message
+    assert "intersect" in tr.message
+    assert tr.final("x") == pytest.approx(0.0, abs=1e-9)
+    assert tr.t_final == pytest.approx(2.0, abs=1e-9)
 
 
 def test_exact_path_locates_a_guard_crossed_twice_within_a_step(coulomb):
@@ -538,7 +554,8 @@ def test_two_surfaces_crossing_one_while_sliding_on_the_other(coulomb):
                 )
                 i = np.searchsorted(tr.t, grid, side="right") - 1
                 j = np.searchsorted(ref.t, grid, side="right") - 1
-                assert np.array_equal(tr.t[i], grid) and np.array_equal(ref.t[j], grid)
+                assert np.array_equal(tr.t[i], grid)
+                assert np.array_equal(ref.t[j], grid)
                 assert np.max(np.abs(tr[x][i] - ref["x"][j])) <= tol
                 assert np.max(np.abs(tr[v][i] - ref["v"][j])) <= tol
 
@@ -562,10 +579,13 @@ def test_halt_mode_passes_on_or_ends_the_run():
         initial_mode="go",
     )
     tr = simulate(s, {"a": 1.0}, (0.0, 2.0), {"x": 0.0}, options=IDA)
-    assert tr.status == Status.COMPLETED and tr.final("x") == pytest.approx(0.0, abs=1e-9)
+    assert tr.status == Status.COMPLETED
+    assert tr.final("x") == pytest.approx(0.0, abs=1e-9)
     assert [e.target for e in tr.events] == ["check", "after"]
     tr = simulate(s, {"a": -1.0}, (0.0, 2.0), {"x": 0.0}, options=IDA, throw=False)
-    assert tr.status == Status.HALTED and tr.t_final == pytest.approx(1.0, abs=1e-9)
-    assert "halted at t=" in tr.message and "x went past 1 with a <= 0" in tr.message
+    assert tr.status == Status.HALTED
+    assert tr.t_final == pytest.approx(1.0, abs=1e-9)
+    assert "halted at t=" in tr.message
+    assert "x went past 1 with a <= 0" in tr.message
     with pytest.raises(ModelError, match="`halt` must be printable text"):
         Mode("bad", halt="line\nbreak")

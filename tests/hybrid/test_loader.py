@@ -56,15 +56,19 @@ def _write(tmp_path, text, name="ball.toml"):
 
 def test_small_model_file_loads_and_simulates(tmp_path):
     system = load_system(_write(tmp_path, BALL))
-    assert system.name == "ball" and system.title == "Bouncing ball"
-    assert system.variable_names == ("h", "v") and system.variables[0].unit == "m"
+    assert system.name == "ball"
+    assert system.title == "Bouncing ball"
+    assert system.variable_names == ("h", "v")
+    assert system.variables[0].unit == "m"
     assert system.variables[0].description == "height"
     assert [p.domain for p in system.parameters] == ["positive", "nonnegative"]
-    assert system.transitions[0].reset["v"] == "-e*v" and system.transitions[0].direction == -1
+    assert system.transitions[0].reset["v"] == "-e*v"
+    assert system.transitions[0].direction == -1
     params = system.preset("earth")
     _, _, x0, exact = bouncing_ball(e=0.5, g=9.81)
     tr = simulate(system, params, (0.0, 1.3), x0, options=TIGHT)  # mode0 from the file
-    assert tr.success and tr.n_transitions == 5
+    assert tr.success, tr.message
+    assert tr.n_transitions == 5
     ts = np.array([ev.t for ev in tr.events])
     assert np.max(np.abs(ts - exact.impact_time(np.arange(1, 6)))) <= 1e-9
 
@@ -79,9 +83,11 @@ def test_builtin_model_files_round_trip_through_system_from_dict():
         if name.endswith("_sign"):  # written with sign(): the entry of the file's mode (issue 12)
             assert from_file.initial_mode == "motion"
         elif name.startswith("belt"):  # the autonomous models of issue 11: no forcing period
-            assert from_file.initial_mode in ("stick", "stick_stick") and from_file.period is None
+            assert from_file.initial_mode in ("stick", "stick_stick")
+            assert from_file.period is None
         else:
-            assert from_file.initial_mode == "stick" and from_file.period == "2*pi/Omega"
+            assert from_file.initial_mode == "stick"
+            assert from_file.period == "2*pi/Omega"
 
 
 @pytest.mark.parametrize(

@@ -80,7 +80,8 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
     ref = periodic_orbit(
         system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
     )
-    assert ref.converged and ref.t0 == o.t0
+    assert ref.converged
+    assert ref.t0 == o.t0
     x, xr = o.x0[:5], ref.x0[:5]
     # accurate to cond(I - M) x rtol (the orbit's documented accuracy), here about 1e-7
     assert np.max(np.abs(x - xr)) / np.max(np.abs(xr)) <= 10 * o.condition * IDA.rtol

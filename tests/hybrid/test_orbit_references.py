@@ -286,7 +286,8 @@ def test_duffing_fold_orbits(duffing):
     for fold in ref.folds:
         T = fold.period
         mu = fold.multipliers
-        assert abs(mu[0] - 1) < 1e-9 and abs(mu[0].imag) == 0
+        assert abs(mu[0] - 1) < 1e-9
+        assert abs(mu[0].imag) == 0
         assert abs(mu[1] - math.exp(-p["c"] * T / p["m"])) < 1e-9
         assert fold.stability == "neutral"
         # closes on itself at a coarser tolerance too
@@ -323,7 +324,8 @@ def test_duffing_three_orbits_inside_the_band(duffing):
     # stable orbits: a complex pair on the circle of radius sqrt(det M); the saddle: real mu > 1
     for o in (low, high):
         assert np.allclose(np.abs(o.multipliers), math.sqrt(detM), atol=1e-11)
-    assert mid.multipliers[0].real > 1.3 and mid.multipliers.imag.max() == 0
+    assert mid.multipliers[0].real > 1.3
+    assert mid.multipliers.imag.max() == 0
     # harmonic balance amplitudes are within 2 %
     hb = [a for a, _ in op.duffing_harmonic_balance(p)]
     assert np.allclose(hb, [o.amplitude["x"] for o in ref.orbits], rtol=2e-2)
@@ -333,7 +335,8 @@ def test_duffing_single_orbit_outside_the_band(duffing):
     _, p, ref = duffing
     for W in (ref.band[0] - 0.01, ref.band[1] + 0.01):
         orbits = op.duffing_orbits(dict(p, Omega=W))
-        assert len(orbits) == 1 and orbits[0].stability == "stable"
+        assert len(orbits) == 1
+        assert orbits[0].stability == "stable"
 
 
 def test_duffing_amplitude_from_dense_samples(duffing):
@@ -352,7 +355,8 @@ def test_friction_orbit_from_a_long_solve_ivp_run(friction):
     _, p, ref = friction
     x, v, mode, log = op.friction_simulate_ivp(p, 30 * ref.period, 0.0, 0.0, "stick")
     assert mode == ref.mode0
-    assert abs(x - ref.x0[0]) < 1e-9 and abs(v - ref.x0[1]) < 1e-9
+    assert abs(x - ref.x0[0]) < 1e-9
+    assert abs(v - ref.x0[1]) < 1e-9
     assert len(log) == 1 + 4 * 30  # first breakaway, then four switches per period
 
 
@@ -361,7 +365,8 @@ def test_friction_switches_match_solve_ivp(friction):
     x, v, mode, log = op.friction_simulate_ivp(p, ref.period, ref.x0[0], ref.x0[1], ref.mode0)
     assert [s[1:] for s in log] == [s[1:] for s in ref.switches]
     assert np.allclose([s[0] for s in log], [s[0] for s in ref.switches], rtol=0, atol=1e-9)
-    assert abs(x - ref.x0[0]) < 1e-10 and abs(v - ref.x0[1]) < 1e-10
+    assert abs(x - ref.x0[0]) < 1e-10
+    assert abs(v - ref.x0[1]) < 1e-10
     assert ref.mode_sequence == ("slip+", "stick", "slip-", "stick", "slip+")
 
 
@@ -371,7 +376,8 @@ def test_friction_orbit_is_symmetric_with_two_sticks(friction):
     half = ref.trajectory([T / 2])[0]
     assert np.max(np.abs(half[:2] + ref.x0[:2])) < 1e-12
     (t1, *_), (t2, *_), (t3, *_), (t4, *_) = ref.switches
-    assert t3 - t1 == pytest.approx(T / 2, abs=1e-12) and t4 - t2 == pytest.approx(T / 2, abs=1e-12)
+    assert t3 - t1 == pytest.approx(T / 2, abs=1e-12)
+    assert t4 - t2 == pytest.approx(T / 2, abs=1e-12)
     assert ref.details["stick_fraction"] == pytest.approx(2 * (t2 - t1) / T, rel=1e-12)
     assert 0.1 < ref.details["stick_fraction"] < 0.2
     assert all(0.3 < r < 0.7 for r in ref.details["H_turn_over_R"])  # far from reversal
@@ -392,7 +398,8 @@ def test_friction_monodromy(friction):
     _, p, ref = friction
     mu = ref.multipliers
     assert abs(mu[1]) < 1e-9  # entering stick: a zero multiplier
-    assert 0.07 < abs(mu[0]) < 0.09 and mu[0].imag == 0
+    assert 0.07 < abs(mu[0]) < 0.09
+    assert mu[0].imag == 0
     assert abs(np.linalg.det(ref.monodromy)) < 1e-9
     assert ref.stability == "stable"
 
@@ -411,7 +418,8 @@ def test_friction_stick_boundary(friction):
     above = op.friction_oscillator(Omega=W + 1e-3)[2]
     assert 0 < below.details["stick_fraction"] < 0.01
     assert below.mode_sequence == ("slip+", "stick", "slip-", "stick", "slip+")
-    assert above.details["stick_fraction"] == 0 and above.mode_sequence == ("slip+", "slip-", "slip+")
+    assert above.details["stick_fraction"] == 0
+    assert above.mode_sequence == ("slip+", "slip-", "slip+")
     assert all(r > 1 for r in above.details["H_turn_over_R"])
 
 

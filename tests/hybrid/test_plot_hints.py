@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import HybridSystem, Mode, load_system, periodic_orbit, simulate
+from hybrid import HybridSystem, Mode, load_system, periodic_orbit, plot_hints, simulate
 from hybrid.cli import main
-from hybrid.model.plot_hints import derived_plot_hints, plot_hints
+from hybrid.model.plot_hints import derived_plot_hints
 from hybrid.plot.trajectory import orbit_figure, trajectory_figure
 
 MODELS = Path(hybrid_models.__file__).parent
@@ -22,7 +22,8 @@ def _without_plot(name: str, tmp_path: Path) -> Path:
     """The shipped mode-level file `name`.toml with its [plot] table cut out."""
     text = (MODELS / f"{name}.toml").read_text()
     cut = re.sub(r"(?ms)^\[plot\]\n.*?(?=^\[|\Z)", "", text)
-    assert "[plot]" in text and "[plot]" not in cut
+    assert "[plot]" in text
+    assert "[plot]" not in cut
     assert "plot" not in tomllib.loads(cut)
     path = tmp_path / f"{name}_noplot.toml"
     path.write_text(cut)
@@ -45,7 +46,10 @@ def test_derived_hints_match_the_hand_written_ones(name, tmp_path):
     system = load_system(_without_plot(name, tmp_path))
     assert dict(system.plot) == {}
     hints = plot_hints(system)
-    assert hints["displacements"] and hints["force"] and hints["velocity"] and hints["shade_modes"]
+    assert hints["displacements"]
+    assert hints["force"]
+    assert hints["velocity"]
+    assert hints["shade_modes"]
     assert {k: hints[k] for k in PLOT_KEYS} == {
         k: list(v) if isinstance(v, tuple | list) else v for k, v in declared.items() if k in PLOT_KEYS
     }
@@ -64,10 +68,13 @@ def test_declared_hints_win_and_missing_ones_are_derived():
         plot={"displacements": ["v"]},
     )
     hints = plot_hints(bare)
-    assert hints["displacements"] == ["v"] and "force" not in hints and hints["units"] == {}
+    assert hints["displacements"] == ["v"]
+    assert "force" not in hints
+    assert hints["units"] == {}
     assert derived_plot_hints(bare) == {"displacements": ["x"], "shade_modes": [], "velocity": "v"}
 
 
+@pytest.mark.slow
 def test_model_file_without_plot_gets_a_full_figure(tmp_path, monkeypatch, capsys):
     # coulomb.toml without [plot], forced: both the CLI's PNG and the figure have data in every axis
     path = _without_plot("coulomb", tmp_path)
@@ -101,7 +108,8 @@ def test_model_without_a_switching_quantity_has_no_empty_axis():
         initial_mode="free",
     )
     hints = plot_hints(osc)
-    assert hints["displacements"] == ["x"] and "force" not in hints
+    assert hints["displacements"] == ["x"]
+    assert "force" not in hints
     tr = simulate(osc, {"k": 1.0, "Omega": 0.7}, (0.0, 30.0), {"x": 0.0, "v": 0.0}, samples_per_period=50)
     fig = trajectory_figure(tr)
     assert len(fig.axes) == 2

@@ -52,4 +52,5 @@ def test_raises_what_f_raises():
 def test_finite_on_noisy_plateau():
     rng = np.random.default_rng(1)
     x, fx = bounded_minimum(lambda x: 1.0 + 1e-16 * rng.standard_normal(), 0.0, 1.0, 1e-10)
-    assert 0.0 < x < 1.0 and math.isfinite(fx)
+    assert 0.0 < x < 1.0
+    assert math.isfinite(fx)

@@ -70,14 +70,18 @@ def test_harmonic_oscillator_after_several_periods():
     t_end = 7.3 * T
     t_eval = np.linspace(0.0, t_end, 30)
     tr = simulate(system, params, (0.0, t_end), x0, t_eval=t_eval, options=TIGHT)
-    assert tr.status == Status.COMPLETED and tr.success
+    assert tr.status == Status.COMPLETED
+    assert tr.success, tr.message
     assert np.array_equal(tr.t, t_eval)
     assert np.max(np.abs(tr.y - exact(t_eval))) <= 1e-8
     assert np.max(np.abs(tr.y_final - exact(t_end)[0])) <= 1e-8
-    assert tr.t_final == t_end and tr.mode_final == "free"
+    assert tr.t_final == t_end
+    assert tr.mode_final == "free"
     # default sampling: every internal step lies on the exact solution too
     tr = simulate(system, params, (0.0, t_end), x0, options=TIGHT)
-    assert tr.t[0] == 0.0 and tr.t[-1] == t_end and np.all(np.diff(tr.t) > 0)
+    assert tr.t[0] == 0.0
+    assert tr.t[-1] == t_end
+    assert np.all(np.diff(tr.t) > 0)
     assert np.max(np.abs(tr.y - exact(tr.t))) <= 1e-8
 
 
@@ -146,7 +150,8 @@ def test_forced_oscillator_is_not_aliased_over_1000_periods():
 def test_bouncing_ball_impact_times_form_the_geometric_series(e):
     system, params, x0, exact = bouncing_ball(e=e)
     tr = simulate(system, params, (0.0, 10.0), x0, throw=False)
-    assert tr.status == Status.ZENO and not tr.success
+    assert tr.status == Status.ZENO
+    assert not tr.success
     assert "Zeno" in tr.message
     located = [ev for ev in tr.events if not ev.chained]
     # Impacts whose rebound rises well above the guard's noise level (~1e-9 m): speed >= 1e-3 m/s,
@@ -155,12 +160,14 @@ def test_bouncing_ball_impact_times_form_the_geometric_series(e):
     # the time off by ~3e-5 s, for the last switch before the Zeno stop.)
     k = np.arange(1, len(located) + 1)
     resolved = e ** (k - 1) * params["g"] * exact.impact_time(1) >= 1e-3
-    assert resolved.sum() >= 13 and np.all(resolved[: resolved.sum()])
+    assert resolved.sum() >= 13
+    assert np.all(resolved[: resolved.sum()])
     _check_located_events(system, params, [ev for ev, r in zip(located, resolved, strict=True) if r])
     ts = np.array([ev.t for ev in located])
     assert np.max(np.abs(ts[resolved] - exact.impact_time(k[resolved]))) <= 1e-9
     for ev in located:
-        assert ev.source == ev.target == "fly" and ev.guard == "impact"
+        assert ev.source == ev.target == "fly"
+        assert ev.guard == "impact"
         assert ev.x_minus[1] < 0  # falling
         assert ev.x_plus[1] == -e * ev.x_minus[1]  # reset applied exactly
         assert ev.x_plus[0] == ev.x_minus[0]
@@ -179,18 +186,21 @@ def test_guard_at_zero_at_the_start_is_decided_by_the_flow(v0):
     t_end = 0.6 if v0 > 0 else 0.4  # before the Zeno times 0.82 and 0.41
     tr = simulate(system, params, (0.0, t_end), {"h": 0.0, "v": v0}, options=TIGHT)
     if v0 > 0:
-        assert tr.events[0].t == pytest.approx(2 * v0 / g, abs=1e-12) and not tr.events[0].chained
+        assert tr.events[0].t == pytest.approx(2 * v0 / g, abs=1e-12)
+        assert not tr.events[0].chained
     else:
         first, second = tr.events[:2]
         assert (first.t, first.chained) == (0.0, True)
         assert first.x_plus[1] == -e * v0
-        assert second.t == pytest.approx(2 * e * abs(v0) / g, abs=1e-12) and not second.chained
+        assert second.t == pytest.approx(2 * e * abs(v0) / g, abs=1e-12)
+        assert not second.chained
 
 
 def test_ball_at_rest_on_the_ground_is_a_zeno_point():
     system, params, _, _ = bouncing_ball()
     tr = simulate(system, params, (0.0, 1.0), {"h": 0.0, "v": 0.0}, throw=False)
-    assert tr.status == Status.ZENO and "t=0.0" in tr.message
+    assert tr.status == Status.ZENO
+    assert "t=0.0" in tr.message
 
 
 def test_two_way_guard_fires_at_every_crossing_but_not_where_it_starts():
@@ -238,7 +248,8 @@ def test_bouncing_ball_samples_between_impacts():
     t_end = 1.3  # before the Zeno time 1.3546
     t_eval = np.linspace(0.0, t_end, 200)
     tr = simulate(system, params, (0.0, t_end), x0, t_eval=t_eval, options=TIGHT)
-    assert tr.success and tr.n_transitions == 5
+    assert tr.success, tr.message
+    assert tr.n_transitions == 5
     assert np.max(np.abs(tr.y - exact(t_eval))) <= 1e-9
 
 
@@ -251,7 +262,8 @@ def test_time_reached_is_not_before_the_last_switch_when_a_run_stops_early():
     assert tr.status == Status.ZENO
     assert tr.t_final >= tr.events[-1].t
     tr = simulate(system, params, (0.0, 10.0), x0, throw=False, max_transitions=3)
-    assert tr.status == Status.MAX_TRANSITIONS and "raise `max_transitions`" in tr.message
+    assert tr.status == Status.MAX_TRANSITIONS
+    assert "raise `max_transitions`" in tr.message
     assert tr.t_final >= tr.events[-1].t
 
 
@@ -290,7 +302,8 @@ def test_free_coulomb_oscillator_decays_by_2R_over_k_and_sticks():
     assert len(turning) == 6  # 1.05, -0.85, 0.65, -0.45, 0.25, -0.05 (stuck: |x| <= R/k)
     t_end = 20.0
     tr = simulate(system, params, (0.0, t_end), {"x": x0, "v": 0.0}, "stick", options=TIGHT)
-    assert tr.success and tr.mode_final == "stick"
+    assert tr.success, tr.message
+    assert tr.mode_final == "stick"
     located = _check_located_events(system, params, tr.events)
     # released in stick where k x > R: slip- is taken at once (chained at t0)
     first = tr.events[0]
@@ -307,7 +320,8 @@ def test_free_coulomb_oscillator_decays_by_2R_over_k_and_sticks():
     chained = [ev for ev in tr.events[1:] if ev.chained]
     assert len(chained) == 4
     for ev, prev in zip(chained, located[:4], strict=True):
-        assert ev.t == prev.t and ev.source == "stick"
+        assert ev.t == prev.t
+        assert ev.source == "stick"
         assert ev.target == ("slip+" if prev.source == "slip-" else "slip-")
         assert np.array_equal(ev.x_minus, prev.x_plus)
     # where |k x| <= R it stays in stick for good
@@ -332,13 +346,17 @@ def test_coulomb_at_the_friction_limit(x0, n_events):
     system = hybrid_models.coulomb()
     params = system.preset("free")
     tr = simulate(system, params, (0.0, 10.0), {"x": x0, "v": 0.0}, "stick", options=TIGHT)
-    assert tr.success and tr.n_transitions == n_events
+    assert tr.success, tr.message
+    assert tr.n_transitions == n_events
     assert tr.mode_final == "stick"
     if n_events == 0:
         assert set(tr.mode) == {"stick"}
-        assert np.all(tr["x"] == x0) and np.all(tr["v"] == 0.0)
+        assert np.all(tr["x"] == x0)
+        assert np.all(tr["v"] == 0.0)
     else:
-        assert tr.events[0].chained and tr.events[0].t == 0.0 and tr.events[0].target == "slip-"
+        assert tr.events[0].chained
+        assert tr.events[0].t == 0.0
+        assert tr.events[0].target == "slip-"
         assert tr.events[1].t == pytest.approx(math.pi, abs=1e-9)
         assert tr.final("x") == pytest.approx(0.2 - x0, abs=1e-9)
 
@@ -373,7 +391,8 @@ def test_vector_field_selects_the_slip_direction_when_both_guards_are_zero(t0, d
         if ev.target == "stick":
             assert not ev.chained
         else:
-            assert ev.chained and ev.source == "stick"
+            assert ev.chained
+            assert ev.source == "stick"
 
 
 def test_guard_with_two_crossings_within_one_natural_step_is_detected():
@@ -434,7 +453,8 @@ def damper_run(request):
 
 def test_damper_guards_at_zero_after_stick_entry_do_not_refire(damper_run):
     name, system, p, tr = damper_run
-    assert tr.success and tr.n_transitions >= 20
+    assert tr.success, tr.message
+    assert tr.n_transitions >= 20
     kinds = {ev.guard for ev in tr.events}
     assert kinds == {"breakaway+", "breakaway-", "stop+", "stop-"}
     _check_located_events(system, p, tr.events)
@@ -447,8 +467,10 @@ def test_damper_guards_at_zero_after_stick_entry_do_not_refire(damper_run):
             # the breakaway guard H -+ R of the slip just ended starts at zero: it is disarmed and
             # the next switch is a genuine breakaway later on (rounding flicker fires ~5e-8 later)
             assert abs(_H(name, p, a.x_plus) - (p["R"] if a.source == "slip+" else -p["R"])) <= 1e-9
-            assert b.source == "stick" and b.guard.startswith("breakaway")
-            assert not b.chained and b.t - a.t > 1e-3, (a, b)
+            assert b.source == "stick"
+            assert b.guard.startswith("breakaway")
+            assert not b.chained, (a, b)
+            assert b.t - a.t > 1e-3, (a, b)
 
 
 def test_damper_slave_variable_is_consistent_after_every_switch_into_slip(damper_run):
@@ -487,7 +509,8 @@ def test_variable_differential_in_one_mode_and_slave_in_another():
     assert np.max(np.abs(tr.y - want)) <= 1e-8
     assert tr.final("u") == pytest.approx(math.cos(2.5) * math.exp(-params["a"] * 1.5), abs=1e-9)
     track = tr.mode == "track"
-    assert track.sum() > 5 and np.max(np.abs(tr["u"][track] - tr["x"][track])) <= 1e-14
+    assert track.sum() > 5
+    assert np.max(np.abs(tr["u"][track] - tr["x"][track])) <= 1e-14
 
 
 def test_chained_switch_records_have_consistent_post_switch_states():
@@ -498,7 +521,8 @@ def test_chained_switch_records_have_consistent_post_switch_states():
     ab, bc = tr.events
     assert (ab.source, ab.target, ab.chained) == ("A", "B", False)
     assert (bc.source, bc.target, bc.chained) == ("B", "C", True)
-    assert ab.t == pytest.approx(1.0, abs=1e-12) and bc.t == ab.t
+    assert ab.t == pytest.approx(1.0, abs=1e-12)
+    assert bc.t == ab.t
     assert bc.x_minus[1] == 2.0
     assert np.array_equal(ab.x_plus, bc.x_minus), (ab.x_plus, bc.x_minus)
     assert np.allclose(tr.y_final, exact(2.0)[0], rtol=0, atol=1e-12)
@@ -513,7 +537,8 @@ def test_mode_loop_at_one_instant_is_no_admissible_mode():
         transitions=[Transition("A", "B", "x - 1", 1), Transition("B", "A", "x - 0.5", 1)],
     )
     tr = simulate(system, {}, (0.0, 1.0), {"x": 2.0}, "A", throw=False)
-    assert tr.status == Status.NO_ADMISSIBLE_MODE and "no admissible mode at t=0.0" in tr.message
+    assert tr.status == Status.NO_ADMISSIBLE_MODE
+    assert "no admissible mode at t=0.0" in tr.message
     assert "A -> B -> A" in tr.message
     with pytest.raises(SimulationError, match=r"no admissible mode"):
         simulate(system, {}, (0.0, 1.0), {"x": 2.0}, "A")
@@ -528,7 +553,8 @@ def test_unsolvable_algebraic_equation_is_reported():
         transitions=[],
     )
     tr = simulate(system, {}, (0.0, 1.0), {"x": 0.0}, "m", throw=False)
-    assert tr.status == Status.ALGEBRAIC_FAILED and "mode `m`" in tr.message
+    assert tr.status == Status.ALGEBRAIC_FAILED
+    assert "mode `m`" in tr.message
 
 
 # ----------------------------------------------------------------------------
@@ -552,7 +578,8 @@ def test_samples_per_period_and_event_samples():
         at = np.flatnonzero(tr2.t == ev.t)
         last = [e for e in tr2.events if e.t == ev.t][-1]
         assert at.size == 2
-        assert np.array_equal(tr2.y[at[0]], ev.x_minus) and np.array_equal(tr2.y[at[1]], last.x_plus)
+        assert np.array_equal(tr2.y[at[0]], ev.x_minus)
+        assert np.array_equal(tr2.y[at[1]], last.x_plus)
         assert (tr2.mode[at[0]], tr2.mode[at[1]]) == (ev.source, last.target)
     # the samples on the grid are the same with or without event samples
     grid = np.isin(tr2.t, tr.t) & ~np.isin(tr2.t, [ev.t for ev in tr2.events])
@@ -563,13 +590,18 @@ def test_trajectory_accessors_and_progress():
     system, params, x0, exact = oscillator()
     seen = []
     tr = simulate(system, params, (0.0, 3.0), x0, progress=seen.append)
-    assert seen[-1] == 1.0 and all(0.0 <= f <= 1.0 for f in seen) and seen == sorted(seen)
-    assert np.array_equal(tr["x"], tr.y[:, 0]) and np.array_equal(tr["v"], tr.y[:, 1])
+    assert seen[-1] == 1.0
+    assert all(0.0 <= f <= 1.0 for f in seen)
+    assert seen == sorted(seen)
+    assert np.array_equal(tr["x"], tr.y[:, 0])
+    assert np.array_equal(tr["v"], tr.y[:, 1])
     with pytest.raises(KeyError, match=r"no variable or output `q`; have: x, v"):
         tr["q"]
     assert tr.final("x") == tr.y_final[0]
-    assert tr.params == params and tr.system is system
-    assert tr.n_transitions == 0 and tr.mode_intervals() == [(0.0, 3.0, "free")]
+    assert tr.params == params
+    assert tr.system is system
+    assert tr.n_transitions == 0
+    assert tr.mode_intervals() == [(0.0, 3.0, "free")]
     assert "COMPLETED" in repr(tr)
     # outputs of the built-in models are recorded with the samples
     c = hybrid_models.coulomb()

@@ -64,7 +64,8 @@ class Collect(Sink):
 
 def test_streamed_csv_files_equal_the_in_memory_ones(tmp_path, small_blocks):
     system, _, full = coulomb()
-    assert full.n_transitions > 20 and full.t.size > 10 * 64
+    assert full.n_transitions > 20
+    assert full.t.size > 10 * 64
     write_trajectory_csv(full, tmp_path / "memory.csv")
     write_events_csv(full, tmp_path / "memory_events.csv")
     with (
@@ -76,7 +77,8 @@ def test_streamed_csv_files_equal_the_in_memory_ones(tmp_path, small_blocks):
     assert filecmp.cmp(tmp_path / "memory_events.csv", tmp_path / "streamed_events.csv", shallow=False)
     assert samples.rows == full.t.size == tail.n_samples
     assert events.rows == full.n_transitions == tail.n_transitions
-    assert tail.t.size == 1 and tail.t[0] == full.t_final  # the default tail: the last sample
+    assert tail.t.size == 1
+    assert tail.t[0] == full.t_final  # the default tail: the last sample
 
 
 def test_the_kept_tail_is_the_end_of_the_in_memory_run(small_blocks):
@@ -95,8 +97,10 @@ def test_the_kept_tail_is_the_end_of_the_in_memory_run(small_blocks):
     kept = [ev for ev in full.events if ev.t >= w]
     assert 0 < len(kept) < full.n_transitions
     assert [(e.t, e.source, e.target) for e in tail.events] == [(e.t, e.source, e.target) for e in kept]
-    assert tail.n_transitions == full.n_transitions and tail.events_dropped == full.n_transitions - len(kept)
-    assert tail.n_samples == full.n_samples and tail.samples_dropped == full.t.size - win.sum()
+    assert tail.n_transitions == full.n_transitions
+    assert tail.events_dropped == full.n_transitions - len(kept)
+    assert tail.n_samples == full.n_samples
+    assert tail.samples_dropped == full.t.size - win.sum()
     assert tail.kept_from == w
     clipped = [(max(a, w), b, m) for a, b, m in full.mode_intervals() if b > w]
     assert tail.mode_intervals() == clipped
@@ -109,10 +113,12 @@ def test_the_kept_tail_is_the_end_of_the_in_memory_run(small_blocks):
 def test_a_stopped_run_keeps_the_window_before_the_stop(small_blocks):
     _, T, full = coulomb(max_transitions=15, throw=False)
     _, _, tail = coulomb(max_transitions=15, throw=False, sink=Sink(), keep_last=T)
-    assert full.status == tail.status == Status.MAX_TRANSITIONS and full.t_final < 12 * T
+    assert full.status == tail.status == Status.MAX_TRANSITIONS
+    assert full.t_final < 12 * T
     win = full.t >= full.t_final - T
     np.testing.assert_array_equal(tail.t, full.t[win])
-    assert tail.n_transitions == 15 and tail.mode_final == full.mode_final == full.events[-1].target
+    assert tail.n_transitions == 15
+    assert tail.mode_final == full.mode_final == full.events[-1].target
 
 
 def test_energy_balance_of_a_streamed_run_equals_the_in_memory_one():
@@ -125,7 +131,8 @@ def test_energy_balance_of_a_streamed_run_equals_the_in_memory_one():
     assert a["dissipated_energy"] == full["D"][-1] - full["D"][0] > 0
     assert a["mechanical_energy_change"] == full["E"][-1] - full["E"][0]
     assert abs(a["energy_balance_residual"]) < 1e-6 * a["input_work"]
-    assert a["samples"] == full.t.size and a["transitions"] == full.n_transitions
+    assert a["samples"] == full.t.size
+    assert a["transitions"] == full.n_transitions
 
 
 def test_envelope_holds_the_extrema_of_every_bucket(small_blocks):
@@ -143,10 +150,12 @@ def test_envelope_holds_the_extrema_of_every_bucket(small_blocks):
         np.testing.assert_array_equal(ehi, hi)
         np.testing.assert_allclose(centres, 0.5 * (edges[:-1] + edges[1:]))
         ts, vs = env.series(name)
-        assert ts.size == 74 and np.all(np.diff(ts) >= 0)
+        assert ts.size == 74
+        assert np.all(np.diff(ts) >= 0)
         # every point of the series is a sample of the run
         i = np.searchsorted(full.t, ts)
-        assert np.all(full.t[i] == ts) and np.all(np.isin(vs, v))
+        assert np.all(full.t[i] == ts)
+        assert np.all(np.isin(vs, v))
 
 
 def test_sample_caps_are_checked_before_the_run(monkeypatch):
@@ -193,7 +202,9 @@ def test_the_in_memory_cap_also_holds_while_the_run_goes_on(monkeypatch):
         include_events=True,
         throw=False,
     )
-    assert tr.status == Status.MAX_SAMPLES and tr.t.size == 40 and tr.n_transitions >= 5
+    assert tr.status == Status.MAX_SAMPLES
+    assert tr.t.size == 40
+    assert tr.n_transitions >= 5
     assert "after 40 samples, the most a run may have kept in memory: stream them to a sink" in tr.message
 
 
@@ -236,8 +247,11 @@ def test_a_long_streamed_run_needs_no_more_memory(monkeypatch):
     _peak(5, None)  # warm-up: compiled code, solver set-up
     short, _ = _peak(100, Sink())
     long, tr = _peak(1000, Sink())
-    assert tr.n_samples == 2 * 1000 + 1 + 2 * 100 and tr.n_transitions == 100 and tr.t.size == 1
+    assert tr.n_samples == 2 * 1000 + 1 + 2 * 100
+    assert tr.n_transitions == 100
+    assert tr.t.size == 1
     assert long < 1.5 * short, (short, long)
     # the same runs kept in memory do grow: the comparison can tell
     in_memory, tr = _peak(1000, None)
-    assert tr.t.size == tr.n_samples and in_memory > 3 * short, (short, in_memory)
+    assert tr.t.size == tr.n_samples, (short, in_memory)
+    assert in_memory > 3 * short, (short, in_memory)

@@ -99,7 +99,8 @@ def test_axes():
     assert len(hybrid.linear_axis("R", 0.3, 0.8, 0.05).values) == 11
     assert hybrid.linear_axis("R", 0.0, 1.0, 0.3).values == pytest.approx((0.0, 0.3, 0.6, 0.9), abs=1e-15)
     a = hybrid.log_axis("c3", 0.01, 10.0, 7)
-    assert a.values[0] == 0.01 and a.values[-1] == 10.0
+    assert a.values[0] == 0.01
+    assert a.values[-1] == 10.0
     assert np.allclose(np.diff(np.log(a.values)), math.log(1000.0) / 6, rtol=1e-12, atol=0)
     for args, match in [
         (("R", 1.0, 0.5, 0.1), "START <= STOP"),
@@ -131,17 +132,19 @@ def test_model_data_round_trip_and_hash():
 def test_points_against_closed_form(serial, oscillator):
     _, params = oscillator
     axes, res = serial
-    assert res.complete and sorted(res.computed) == [(0, 0), (0, 1), (1, 0), (1, 1)] and not res.reused
+    assert res.complete
+    assert sorted(res.computed) == [(0, 0), (0, 1), (1, 0), (1, 1)]
+    assert not res.reused
     for (i, j), r in res.points.items():
         p = {**params, "c": axes[0].values[i], "k": axes[1].values[j]}
         assert r["values"] == {"c": p["c"], "k": p["k"]}
         assert r["status"] == "bounded", r["message"]
         om, amp = np.asarray(r["curve"]["Omega"]), np.asarray(r["curve"]["amplitude"])
-        assert (
-            om.min() == pytest.approx(P_RANGE[0], abs=1e-12) and om.max() >= P_RANGE[1]
-        )  # the range covered
+        assert om.min() == pytest.approx(P_RANGE[0], abs=1e-12)
+        assert om.max() >= P_RANGE[1]  # the range covered
         assert np.allclose(amp, closed_form(p, om), rtol=1e-8, atol=0)
-        assert r["peak"] == amp.max() and r["peak_at"] == om[np.argmax(amp)]
+        assert r["peak"] == amp.max()
+        assert r["peak_at"] == om[np.argmax(amp)]
         # the continuation resolves the resonance: its largest point is within 1e-3 of the true peak
         w_r = math.sqrt(p["k"] / p["m"] - p["c"] ** 2 / (2 * p["m"] ** 2))
         assert r["peak"] == pytest.approx(float(closed_form(p, w_r)), rel=1e-3)
@@ -162,8 +165,10 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
         p_range=P_RANGE,
         options=EXACT,
     )
-    assert res.points[(0,)]["status"] == "unbounded" and res.points[(1,)]["status"] == "bounded"
-    assert res.points[(0,)]["reason"] == "unbounded" and res.points[(1,)]["reason"] == ""
+    assert res.points[(0,)]["status"] == "unbounded"
+    assert res.points[(1,)]["status"] == "bounded"
+    assert res.points[(0,)]["reason"] == "unbounded"
+    assert res.points[(1,)]["reason"] == ""
     assert any(lo < 1.0 < hi + 1e-6 for lo, hi in res.points[(0,)]["unbounded"])
     # m = 0: the equations divide by zero; the point is recorded with the exception, the next one runs
     res = hybrid.sweep(
@@ -174,7 +179,8 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
         p_range=P_RANGE,
         options=EXACT,
     )
-    assert res.points[(0,)]["status"] == "failed" and res.points[(0,)]["peak"] is None
+    assert res.points[(0,)]["status"] == "failed"
+    assert res.points[(0,)]["peak"] is None
     assert res.points[(0,)]["reason"] == "exception"
     assert "ZeroDivisionError" in res.points[(0,)]["message"]
     assert res.points[(1,)]["status"] == "bounded"
@@ -187,21 +193,26 @@ def test_unbounded_failed_and_time_limit_points_recorded(oscillator, tmp_path):
         options=EXACT,
         point_time_limit=1e-6,
     )
-    assert res.points[(0,)]["status"] == "time limit" and res.points[(0,)]["reason"] == "time-limit"
+    assert res.points[(0,)]["status"] == "time limit"
+    assert res.points[(0,)]["reason"] == "time-limit"
     assert "time limit" in res.points[(0,)]["message"]
 
 
+@pytest.mark.slow
 def test_process_pool_equals_serial(serial, oscillator, tmp_path):
     system, params = oscillator
     axes, ref = serial
     with ProcessPoolExecutor(max_workers=2) as ex:
         res = hybrid.sweep(system, params, axes, tmp_path, p_range=P_RANGE, options=EXACT, executor=ex)
-    assert res.complete and not res.lost
+    assert res.complete
+    assert not res.lost
     assert len({r["pid"] for r in res.points.values()} - {os.getpid()}) >= 1
     for k, r in ref.points.items():
-        assert res.points[k]["curve"] == r["curve"] and res.points[k]["peak"] == r["peak"]
+        assert res.points[k]["curve"] == r["curve"]
+        assert res.points[k]["peak"] == r["peak"]
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_equals_serial(serial, oscillator, tmp_path):
     distributed = pytest.importorskip("distributed")  # the test extra installs it: CI runs this
     system, params = oscillator
@@ -247,7 +258,8 @@ def test_dask_local_cluster_equals_serial(serial, oscillator, tmp_path):
     assert code == 0
     cli = hybrid.load_sweep(tmp_path / "cli")
     for k, r in ref.points.items():
-        assert res.points[k]["curve"] == r["curve"] and res.points[k]["peak"] == r["peak"]
+        assert res.points[k]["curve"] == r["curve"]
+        assert res.points[k]["peak"] == r["peak"]
         assert cli.points[k]["curve"] == r["curve"]
     assert {r["pid"] for r in res.points.values()}.isdisjoint({os.getpid()})
 
@@ -269,7 +281,9 @@ def test_resume_refuses_a_changed_sweep(serial, oscillator, tmp_path):
         hybrid.sweep(changed, params, axes, ref.folder, p_range=P_RANGE, options=EXACT, resume=True)
     # resuming a finished sweep computes nothing
     res = hybrid.sweep(system, params, axes, ref.folder, p_range=P_RANGE, options=EXACT, resume=True)
-    assert res.computed == [] and sorted(res.reused) == sorted(ref.points) and res.points == ref.points
+    assert res.computed == []
+    assert sorted(res.reused) == sorted(ref.points)
+    assert res.points == ref.points
 
 
 def children(pid: int) -> list[int]:
@@ -289,6 +303,7 @@ def alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
     """Kill a running ``hybrid sweep`` with SIGKILL once a point is written; --resume finishes it."""
     toml = tmp_path / "forced.toml"
@@ -330,7 +345,8 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
         t_end = time.monotonic() + 30
         while any(alive(w) for w in workers) and time.monotonic() < t_end:
             time.sleep(0.01)
-        assert workers and not any(alive(w) for w in workers)
+        assert workers
+        assert not any(alive(w) for w in workers)
     finally:
         try:
             os.killpg(proc.pid, signal.SIGKILL)  # its worker process too
@@ -434,10 +450,13 @@ def test_cli_records_a_failed_point_goes_on_and_exits_1(tmp_path, capsys):
     args = ["sweep", str(toml), "--param", "m", "0", "1", "1", "--omega-range", "0.5", "1.5"]
     code = main([*args, "--integrator", "exact", "--out", str(out), "--workers", "1", "--no-progress"])
     captured = capsys.readouterr()
-    assert code == 1 and "1 points failed or ran out of time" in captured.err
-    assert "1 bounded" in captured.out and "1 failed" in captured.out
+    assert code == 1
+    assert "1 points failed or ran out of time" in captured.err
+    assert "1 bounded" in captured.out
+    assert "1 failed" in captured.out
     res = hybrid.load_sweep(out)
-    assert res.points[(0,)]["status"] == "failed" and res.points[(1,)]["status"] == "bounded"
+    assert res.points[(0,)]["status"] == "failed"
+    assert res.points[(1,)]["status"] == "bounded"
 
 
 def test_progress_bar_shows_done_failed_and_time_left():
@@ -462,6 +481,7 @@ def test_progress_bar_shows_done_failed_and_time_left():
     assert "5/10 done, 2 failed" in resumed.bar.stream.getvalue()
 
 
+@pytest.mark.slow
 def test_chart_of_a_plane_with_unbounded_points(oscillator, tmp_path):
     system, params = oscillator
     axes = [hybrid.linear_axis("c", 0.0, 0.1, 0.1), hybrid.linear_axis("k", 0.8, 1.2, 0.4)]
@@ -471,7 +491,8 @@ def test_chart_of_a_plane_with_unbounded_points(oscillator, tmp_path):
     # c = 0 is undamped: unbounded at its resonance sqrt(k/m), inside the range for both k
     assert sorted(v["k"] for v in summary["unbounded"]) == [0.8, 1.2]
     assert all(v["c"] == 0.0 for v in summary["unbounded"])
-    assert summary["counts"]["unbounded"] == 2 and summary["counts"]["bounded"] == 2
+    assert summary["counts"]["unbounded"] == 2
+    assert summary["counts"]["bounded"] == 2
     assert summary["optimum"]["values"]["c"] == 0.1
     assert "unbounded response at 2 points" in lines
     assert (tmp_path / "chart_plane.png").stat().st_size > 0
@@ -500,10 +521,14 @@ def test_points_lost_by_the_executor_have_no_file_and_are_computed_on_resume(osc
     axes = [hybrid.linear_axis("c", 0.1, 0.2, 0.1)]
     kw = {"p_range": P_RANGE, "options": EXACT}
     res = hybrid.sweep(system, params, axes, tmp_path, executor=_LosingExecutor(), **kw)
-    assert res.lost == [((0,), "RuntimeError: worker process died")] and not res.complete
-    assert not (tmp_path / "point-0000.json").exists() and (tmp_path / "point-0001.json").exists()
+    assert res.lost == [((0,), "RuntimeError: worker process died")]
+    assert not res.complete
+    assert not (tmp_path / "point-0000.json").exists()
+    assert (tmp_path / "point-0001.json").exists()
     res = hybrid.sweep(system, params, axes, tmp_path, resume=True, **kw)
-    assert res.computed == [(0,)] and res.reused == [(1,)] and res.complete
+    assert res.computed == [(0,)]
+    assert res.reused == [(1,)]
+    assert res.complete
 
 
 def test_point_files_without_a_manifest_are_refused(oscillator, tmp_path):

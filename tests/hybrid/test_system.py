@@ -283,7 +283,8 @@ def test_parameter_check_rejects_bad_values_naming_the_parameter(domain, value, 
 )
 def test_parameter_check_accepts_and_converts(domain, value, want):
     got = Parameter("a", domain=domain).check(value)
-    assert type(got) is float and got == want
+    assert type(got) is float
+    assert got == want
 
 
 def test_parameter_values_complete_checked_and_named():

@@ -72,7 +72,8 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
         options=opts,
         settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol)),
     )
-    assert ref.converged and o.converged, o.message
+    assert ref.converged, o.message
+    assert o.converged, o.message
     assert o.mode_sequence[1:] == ref.mode_sequence[1:] or set(o.mode_sequence) == set(ref.mode_sequence)
     if integrator == "exact":
         assert all(am.flow().eigen for am in exact_flows(Shooter(ab, o.params, EXACT).cs))
@@ -85,6 +86,7 @@ def test_periodic_orbit_in_engineering_units_equals_the_standard_one(integrator,
     assert np.max(np.abs(mu - mu_ref)) <= (1e-10 if integrator == "exact" else 1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("c", [1e4, 1e6])
 def test_continuation_in_engineering_units_locates_the_band_onset(c):
     w = math.sqrt(c)  # forcing periods of 74 ms and 7.4 ms
@@ -92,5 +94,6 @@ def test_continuation_in_engineering_units_locates_the_band_onset(c):
                       options=EXACT)  # fmt: skip
     assert br.status == "completed", br.message
     onset = [s for s in br.special if s.kind == "mode-gained"]
-    assert len(onset) == 1 and onset[0].status == "located"
+    assert len(onset) == 1
+    assert onset[0].status == "located"
     assert onset[0].parameter == pytest.approx(ONSET * w, rel=1e-10)

@@ -161,7 +161,8 @@ def test_reason_tables_name_the_empty_code_and_the_codes_tested_elsewhere():
 # Reason codes of a periodic orbit
 # ----------------------------------------------------------------------------
 def test_converged_orbit_has_no_reason(coulomb_orbit):
-    assert coulomb_orbit.status is SolveStatus.CONVERGED and coulomb_orbit.status == "converged"
+    assert coulomb_orbit.status is SolveStatus.CONVERGED
+    assert coulomb_orbit.status == "converged"
     assert coulomb_orbit.reason == ""
 
 
@@ -316,15 +317,19 @@ def _one_mode(derivatives: dict) -> HybridSystem:
 )
 def test_equilibrium_reasons(derivatives, x0, reason, message):
     e = hybrid.equilibrium(_one_mode(derivatives), {"c": 1.0}, "m", x0)
-    assert e.status is SolveStatus.FAILED and not e.converged
-    assert e.reason == reason and reason in SOLVE_REASONS
+    assert e.status is SolveStatus.FAILED
+    assert not e.converged
+    assert e.reason == reason
+    assert reason in SOLVE_REASONS
     assert message in e.message
     assert e.stability == "unknown" or reason == "singular"
 
 
 def test_a_converged_equilibrium_has_no_reason():
     e = hybrid.equilibrium(_one_mode({"x": "v", "v": "-x - c*v"}), {"c": 1.0}, "m", {"x": 0.3, "v": 0.0})
-    assert e.status == "converged" and e.converged and e.reason == ""
+    assert e.status == "converged"
+    assert e.converged
+    assert e.reason == ""
     assert e.stability == "stable"
 
 
@@ -358,12 +363,15 @@ def test_all_three_branch_kinds_are_one_class_with_the_same_attributes(three_bra
         assert b.values.tolist() == [pt.params[b.parameter] for pt in b.points]
         assert all(isinstance(sp, SpecialPoint) for sp in b.special)
         assert isinstance(b.status, BranchStatus)
-        assert b.status == "completed" and b.reason == ""
+        assert b.status == "completed"
+        assert b.reason == ""
         assert len(b.stability) == len(b.points)
         assert b.half_peak_to_peak("x").shape == (len(b.points),)
         assert len(b.to_rows()) == len(b.points)
-    assert forced.values[0] == 0.8 and forced.values[-1] >= 0.82
-    assert autonomous.values.tolist()[0] == 0.5 and len(autonomous.points) == 3
+    assert forced.values[0] == 0.8
+    assert forced.values[-1] >= 0.82
+    assert autonomous.values.tolist()[0] == 0.5
+    assert len(autonomous.points) == 3
     assert "reached max_points = 3" in autonomous.message
     # an equilibrium's amplitude is |x|, its half peak-to-peak 0
     np.testing.assert_array_equal(equilibria.half_peak_to_peak("x"), 0.0)
@@ -375,7 +383,8 @@ def test_an_equilibrium_branch_holds_its_hopf_point_as_a_special_point(three_bra
     p = hybrid_models.belt_stribeck().preset("standard")
     v_star = p["vs"] * math.log((p["Fs"] - p["Fk"]) / (p["vs"] * (p["c"] + p["cf"])))
     (sp,) = eb.special
-    assert sp.kind == "hopf" and sp.status == "located"
+    assert sp.kind == "hopf"
+    assert sp.status == "located"
     assert abs(sp.parameter - v_star) <= 1e-10 * v_star
     assert sp.interval[0] <= sp.parameter <= sp.interval[1]
     eq = eb.points[sp.index]  # the located equilibrium is a point of the branch, between the grid values
@@ -414,7 +423,8 @@ def test_a_forced_branch_that_stalls_says_stalled(coulomb, monkeypatch):
         settings=ContinuationOptions(max_failures=2),
         on_point=lambda k, o: first.append(o),
     )
-    assert br.status == BranchStatus.STOPPED and br.reason == "stalled", br.message
+    assert br.status == BranchStatus.STOPPED, br.message
+    assert br.reason == "stalled", br.message
     assert len(br.points) == 1
     assert br.message.startswith("stalled at Omega=0.8: 3 failed steps in a row")
 
@@ -440,20 +450,26 @@ def test_an_autonomous_branch_that_stalls_says_stalled_or_no_start(belt_cycle, m
 
     monkeypatch.setattr(flowmap.FlowMap, "returned", fail_after(0))
     br = hybrid.orbit_branch(belt_cycle, "v_b", (0.2, 0.6))
-    assert br.status == "stopped" and br.reason == "no-start" and not br.points, br.message
+    assert br.status == "stopped", br.message
+    assert br.reason == "no-start", br.message
+    assert not br.points, br.message
     calls.clear()
     monkeypatch.setattr(flowmap.FlowMap, "returned", fail_after(2))
     br = hybrid.orbit_branch(belt_cycle, "v_b", (0.2, 0.6))
-    assert br.status == "stopped" and br.reason == "stalled", br.message
-    assert len(br.points) == 2 and br.message.startswith(f"stalled at v_b={br.values[-1]:.8g}")
+    assert br.status == "stopped", br.message
+    assert br.reason == "stalled", br.message
+    assert len(br.points) == 2
+    assert br.message.startswith(f"stalled at v_b={br.values[-1]:.8g}")
 
 
 def test_an_autonomous_orbit_whose_period_jumps_ends_the_branch(belt_cycle, monkeypatch):
     # the stick-slip cycle's period grows as the belt slows: any growth is a jump at PERIOD_JUMP = 1
     monkeypatch.setattr(autobranch, "PERIOD_JUMP", 1.0)
     br = hybrid.orbit_branch(belt_cycle, "v_b", (0.2, 0.6), direction=-1)
-    assert br.status == "stopped" and br.reason == "period-jump", br.message
-    assert len(br.points) == 1 and "period is over 1 times" in br.message
+    assert br.status == "stopped", br.message
+    assert br.reason == "period-jump", br.message
+    assert len(br.points) == 1
+    assert "period is over 1 times" in br.message
 
 
 # ----------------------------------------------------------------------------
@@ -498,7 +514,8 @@ def test_an_incomplete_point_of_a_sweep_carries_the_response_reason(
     axis = hybrid.linear_axis("F", 0.5, 0.5, 0.1)
     res = hybrid.sweep(system, p, [axis], tmp_path, p_range=(0.5, 0.6), coordinate="x")
     r = res.points[(0,)]
-    assert r["status"] == PointStatus.INCOMPLETE and r["reason"] == reason
+    assert r["status"] == PointStatus.INCOMPLETE
+    assert r["reason"] == reason
     assert reason in POINT_REASONS
 
 
@@ -692,7 +709,8 @@ def test_continue_orbits_calls_on_point_with_index_and_orbit_and_progress_with_a
     )
     assert [k for k, _ in seen] == [0] * len(br.points)
     assert all(o is q for (_, o), q in zip(seen, br.points, strict=True))
-    assert fractions == sorted(fractions) and 0.0 < fractions[-1] <= 1.0
+    assert fractions == sorted(fractions)
+    assert 0.0 < fractions[-1] <= 1.0
 
 
 def test_sweep_calls_progress_with_a_fraction_and_on_point_with_index_and_result(coulomb, tmp_path):
@@ -713,14 +731,16 @@ def test_sweep_calls_progress_with_a_fraction_and_on_point_with_index_and_result
 # Short summaries
 # ----------------------------------------------------------------------------
 def _short(text: str) -> str:
-    assert text.count("\n") <= 2 and len(text) <= 400, text
+    assert text.count("\n") <= 2, text
+    assert len(text) <= 400, text
     return text
 
 
 def test_orbit_repr(coulomb_orbit, coulomb):
     text = _short(repr(coulomb_orbit))
     assert text.startswith("PeriodicOrbit(coulomb, T=7.85398 s, ")
-    assert "converged" in text and coulomb_orbit.stability in text
+    assert "converged" in text
+    assert coulomb_orbit.stability in text
     system, p = coulomb
     failed = hybrid.periodic_orbit(
         system, p, t0=0.0, settings=ShootingOptions(newton=NewtonOptions(max_iter=1), transient_periods=0)

@@ -145,7 +145,8 @@ def test_caption_values_figs_11_to_13():
         assert nd.mu == pytest.approx(1 / 11, rel=1e-15)
         assert round(nd.mu, 2) == 0.09
         assert PARAMS[model]["m2"] / PARAMS[model]["m1"] == 0.1
-        assert nd.p == pytest.approx(1.0) and nd.k == pytest.approx(1.0)
+        assert nd.p == pytest.approx(1.0)
+        assert nd.k == pytest.approx(1.0)
         assert nd.eta == pytest.approx(0.854)
 
 
@@ -279,7 +280,8 @@ def test_fixed_points_count_and_branches():
         assert len(fps) == 1
         assert fps[0].branch == ("lo" if eta < peak.eta_lo[0] else "hi")
     far = av.fixed_points("absorber", ABSORBER, 1, eta=0.80)[0]
-    assert not far.slipping and far.stability == "neutral"
+    assert not far.slipping
+    assert far.stability == "neutral"
     # Linear stick resonance of the first-order model: A = eps |Fc| f / (2 eta_i |eta - eta_i|).
     ref = Ref("absorber", ABSORBER, 1)
     assert far.A == pytest.approx(ref.f * ref.Fc / (2 * ref.eta * (ref.eta - 0.80)), rel=1e-12)
@@ -459,8 +461,10 @@ def test_printed_eq23_coefficient_isolator_mode2():
     good = av.modal_equation("isolator", ISOLATOR, 2)
     bad = av.modal_equation("isolator", ISOLATOR, 2, printed=True)
     R, _ = av.modal_matrix("isolator", ISOLATOR)
-    assert good.Fc == pytest.approx(ref.Fc, rel=1e-12) and good.Wc == pytest.approx(ref.Wc, rel=1e-12)
-    assert bad.Fc == R[1, 0] and abs(bad.Fc - ref.Fc) > 1.0  # 2.404 vs 0.7603
+    assert good.Fc == pytest.approx(ref.Fc, rel=1e-12)
+    assert good.Wc == pytest.approx(ref.Wc, rel=1e-12)
+    assert bad.Fc == R[1, 0]
+    assert abs(bad.Fc - ref.Fc) > 1.0  # 2.404 vs 0.7603
     assert av.modal_equation("isolator", ISOLATOR, 1, printed=True) == av.modal_equation(
         "isolator", ISOLATOR, 1
     )
@@ -479,7 +483,8 @@ def test_printed_isolator_peak_d11_d13():
         if mode == 1:
             x_good = av.physical_amplitudes("isolator", p, 1, good.A_max)[0]
             x_bad = av.physical_amplitudes("isolator", p, 1, bad.A_max)[0]
-            assert x_good == pytest.approx(3.1836, rel=1e-4) and x_bad == pytest.approx(1.2729, rel=1e-4)
+            assert x_good == pytest.approx(3.1836, rel=1e-4)
+            assert x_bad == pytest.approx(1.2729, rel=1e-4)
             other = av.characteristic_amplitudes("isolator", p, 2, printed=True)
             assert bad.A_min == max(other.A_min1, other.A_min2) != good.A_min
     # D.14/D.15 and Eq. (51) are correct as printed.
@@ -494,7 +499,8 @@ def test_printed_absorber_mode2_eqs_40_44():
     good = av.characteristic_amplitudes("absorber", p, 2)
     bad = av.characteristic_amplitudes("absorber", p, 2, printed=True)
     assert good.A_max == pytest.approx(ref_peak(ref), rel=1e-8)
-    assert bad.A_max == pytest.approx(good.A_min2, rel=1e-14) and bad.A_max < good.A_min1
+    assert bad.A_max == pytest.approx(good.A_min2, rel=1e-14)
+    assert bad.A_max < good.A_min1
     assert av.rho_opt("absorber", p, 2, printed=True) == pytest.approx(
         -av.rho_opt("absorber", p, 2), rel=1e-14
     )
@@ -619,7 +625,9 @@ def test_stability_agrees_with_simulation_of_averaged_flow(model, mode):
     # (A cos psi, A sin psi) is conserved.
     eta = eq.eta_i - 0.004
     fp = av.fixed_points(model, p, mode, eta=eta)[0]
-    assert not fp.slipping and fp.A < 0.8 * amps.A_min1 and fp.stability == "neutral"
+    assert not fp.slipping
+    assert fp.A < 0.8 * amps.A_min1
+    assert fp.stability == "neutral"
     period = (
         2 * math.pi / abs(np.linalg.eigvals(av.averaged_jacobian(model, p, mode, fp.A, fp.psi, eta))[0].imag)
     )
@@ -647,16 +655,20 @@ def test_frequency_response_curve_shape(model, mode):
     assert fr.A[-1] == fr.amplitudes.A_max
     assert fr.eta_lo[-1] == fr.eta_hi[-1]  # the branches meet at the peak
     assert np.all(fr.eta_lo <= fr.eta_hi)
-    assert np.all(np.isfinite(fr.eta_lo)) and np.all(np.isfinite(fr.eta_hi))
+    assert np.all(np.isfinite(fr.eta_lo))
+    assert np.all(np.isfinite(fr.eta_hi))
     np.testing.assert_allclose(fr.Omega_lo, fr.eta_lo * math.sqrt(p["c1"] / p["m1"]))
-    assert fr.slipping.any() and (~fr.slipping).any()
+    assert fr.slipping.any()
+    assert (~fr.slipping).any()
     # Beyond A_max the radicand is negative: no point.
     beyond = av.frequency_response(model, p, mode, A=[1.01 * fr.amplitudes.A_max])
-    assert np.isnan(beyond.eta_lo[0]) and beyond.stability_lo == ("none",)
+    assert np.isnan(beyond.eta_lo[0])
+    assert beyond.stability_lo == ("none",)
     # Unbounded below rho_min: the curve runs to large A towards the slip frequency.
     low = dict(p, R=0.9 * av.breakaway_force(model, p, av.rho_min(model, p, mode)))
     fr = av.frequency_response(model, low, mode)
-    assert math.isinf(fr.amplitudes.A_max) and np.isfinite(fr.eta_lo[-1])
+    assert math.isinf(fr.amplitudes.A_max)
+    assert np.isfinite(fr.eta_lo[-1])
 
 
 def test_bad_input():

@@ -18,10 +18,17 @@ import pytest
 
 import hybrid
 import hybrid_models
-from hybrid import NewtonOptions, SolverOptions, simulate
-from hybrid.continuation.autonomous import AUTONOMOUS_CONTINUATION, hopf_branch, orbit_branch
-from hybrid.orbits.autonomous import autonomous_orbit
-from hybrid.orbits.equilibria import equilibrium, locate_hopf
+from hybrid import (
+    NewtonOptions,
+    SolverOptions,
+    autonomous_orbit,
+    equilibrium,
+    hopf_branch,
+    locate_hopf,
+    orbit_branch,
+    simulate,
+)
+from hybrid.continuation.autonomous import AUTONOMOUS_CONTINUATION
 
 P = {"m": 2.0, "k": 3.0, "c": 0.0, "Fs": 1.2, "Fk": 0.5}
 
@@ -50,7 +57,8 @@ def test_coulomb_stick_slip_cycle_against_closed_form(integrator, rtol, err):
             assert abs(o.half_peak_to_peak["x"] / A - 1) <= err, (v_b, phase)
             triv = o.multipliers[o.multiplier_kinds.index("trivial")]
             assert abs(triv - 1) <= 1e-8
-            assert o.stability == "stable" and o.mode_fractions.keys() == {"stick", "slip-"}
+            assert o.stability == "stable"
+            assert o.mode_fractions.keys() == {"stick", "slip-"}
 
 
 def mu(s, p):
@@ -64,7 +72,8 @@ def test_stribeck_steady_sliding_and_hopf_against_closed_form(cf):
     for v_b in (0.6, 1.7):
         q = {**p, "v_b": v_b}
         eq = equilibrium(belt, q, "slip-", {"x": 0.5, "w": -v_b})
-        assert eq.converged and eq.admissible
+        assert eq.converged, eq.message
+        assert eq.admissible
         assert abs(eq.state("x") - mu(v_b, q) / q["k"]) <= 1e-12
         assert abs(eq.state("w") + v_b) <= 1e-12
         slope = -(q["Fs"] - q["Fk"]) / q["vs"] * math.exp(-v_b / q["vs"]) + cf  # mu'(v_b)
@@ -86,6 +95,7 @@ def test_stribeck_steady_sliding_and_hopf_against_closed_form(cf):
     assert hp.frequency == abs(hp.equilibrium.eigenvalues[0].imag)
 
 
+@pytest.mark.slow
 def test_stribeck_hopf_branch_meets_the_stick_slip_branch_at_a_grazing():
     belt = hybrid_models.belt_stribeck()
     p = belt.preset("standard")
@@ -119,7 +129,8 @@ def test_long_simulation_from_steady_sliding_settles_on_the_cycle():
     belt = hybrid_models.belt_stribeck()
     p = belt.preset("standard")  # v_b = 0.8 < v_b*: steady sliding is unstable
     cycle = autonomous_orbit(belt, p)
-    assert cycle.converged and cycle.stability == "stable"
+    assert cycle.converged, cycle.message
+    assert cycle.stability == "stable"
     x_star = mu(p["v_b"], p) / p["k"]
     tr = simulate(
         belt,
@@ -130,6 +141,7 @@ def test_long_simulation_from_steady_sliding_settles_on_the_cycle():
         options=SolverOptions(rtol=1e-10, atol=1e-12),
     )
     hits = [e for e in tr.events if e.guard == "breakaway-"]
-    assert len(hits) >= 10 and hits[0].t > 100.0  # it took the slow growth before the first stick
+    assert len(hits) >= 10
+    assert hits[0].t > 100.0  # it took the slow growth before the first stick
     assert abs((hits[-1].t - hits[-2].t) / cycle.period - 1) <= 1e-8
     assert np.max(np.abs(hits[-1].x_plus - cycle.x0)) <= 1e-8

@@ -146,7 +146,9 @@ def test_frictionless_limit_and_shapes():
     assert stop_time(2.0, 8.0, 0.0, 0.4) == math.inf
     assert math.isnan(stop_position(2.0, 8.0, 0.0, 0.4))
     x0, v0 = free_response(1.0, 1.0, 0.5, 2.0, 0.0)
-    assert x0.shape == () and float(x0) == 2.0 and float(v0) == 0.0
+    assert x0.shape == ()
+    assert float(x0) == 2.0
+    assert float(v0) == 0.0
 
 
 @pytest.mark.parametrize(

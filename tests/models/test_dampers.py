@@ -271,9 +271,8 @@ def test_from_rest_the_absorber_first_slips_where_the_stuck_closed_form_reaches_
     )
     assert tr.success
     first = tr.events[0]
-    assert first.source == "stick" and first.target == (
-        "slip+" if first.x_minus[4] - first.x_minus[0] > 0 else "slip-"
-    )
+    assert first.source == "stick"
+    assert first.target == ("slip+" if first.x_minus[4] - first.x_minus[0] > 0 else "slip-")
     assert abs(first.t - t_slip) <= 1e-6, (first.t, t_slip)
     before = tr.t < first.t
     x1, x2, H, _ = stuck_absorber_from_rest(p, tr.t[before])

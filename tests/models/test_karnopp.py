@@ -66,7 +66,8 @@ def test_energy_balance_stick_slip(stick_slip_run):
     balance = res.W - res.D - (energy - energy[0])
     assert np.abs(balance).max() <= 1e-7 * energy[0]
     # The run really is stick-slip, dissipates, and the dissipation never decreases.
-    assert res.sticking.any() and (~res.sticking).any()
+    assert res.sticking.any()
+    assert (~res.sticking).any()
     assert res.D[-1] > 0.04 * energy[0]
     assert np.all(np.diff(res.D) >= -1e-15)
     # Slipping happens at the breakaway force (overshoot limited by the solver tolerance).
@@ -132,12 +133,15 @@ def test_mechanical_energy_shapes_and_values():
 def test_result_layout():
     t = np.linspace(0.0, PERIOD, 11)
     res = simulate_karnopp("absorber", ABSORBER, (0.0, PERIOD), Y0_STICK_SLIP["absorber"], t_eval=t)
-    assert res.t.shape == (11,) and res.y.shape == (11, 5)
+    assert res.t.shape == (11,)
+    assert res.y.shape == (11, 5)
     for arr in (res.W, res.D, res.H, res.v_r, res.sticking):
         assert arr.shape == (11,)
     assert res.sticking.dtype == np.bool_
-    assert res.W[0] == 0.0 and res.D[0] == 0.0
-    assert res.nfev > 0 and isinstance(res.message, str)
+    assert res.W[0] == 0.0
+    assert res.D[0] == 0.0
+    assert res.nfev > 0
+    assert isinstance(res.message, str)
     with pytest.raises(AttributeError):
         res.nfev = 0  # frozen
 

@@ -19,6 +19,7 @@ CASES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 def test_karnopp_converges_to_the_event_driven_solution(name):
     system = hybrid_models.BUILTIN[name]()

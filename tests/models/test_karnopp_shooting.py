@@ -130,7 +130,8 @@ def absorber_exact():
     orbit = periodic_orbit(
         system, p, guess, "slip-", t0=0.0, settings=hybrid.ShootingOptions(transient_periods=0)
     )
-    assert orbit.converged and orbit.mode0 == "slip-", orbit.message
+    assert orbit.converged, orbit.message
+    assert orbit.mode0 == "slip-", orbit.message
     return orbit
 
 
@@ -165,7 +166,8 @@ def test_absorber_stick_slip_section_in_slip(absorber_exact):
     t = np.linspace(0.0, T, 20001)
     run = simulate_karnopp("absorber", p, (0.0, T), orbit.y0, nu=orbit.nu, rtol=1e-10, atol=1e-12, t_eval=t)
     assert np.abs(run.y[-1] - orbit.y0).max() <= 1e-8 * np.abs(orbit.y0).max()
-    assert run.sticking.any() and (~run.sticking).any()
+    assert run.sticking.any()
+    assert (~run.sticking).any()
     assert run.D[-1] > 0.05  # J per period (measured 0.0808)
     assert run.W[-1] == pytest.approx(run.D[-1], rel=1e-6)
     assert orbit.amplitude_x1 == pytest.approx(np.abs(run.y[:, 0]).max(), rel=1e-7)
@@ -193,13 +195,15 @@ def test_absorber_stick_slip_section_in_stick(absorber_exact):
         t0=t0,
         settings=hybrid.ShootingOptions(transient_periods=0),
     )
-    assert exact.converged and exact.mode0 == "stick", exact.message
+    assert exact.converged, exact.message
+    assert exact.mode0 == "stick", exact.message
     orbit = shoot_karnopp("absorber", p, 0.9 * np.asarray(exact.x0[:5]), t0=t0)
     assert orbit.t0 == t0
     assert orbit.iterations <= 8
     check_against_exact(orbit, exact, state_tol=2e-6, mu_tol=1e-4)
 
 
+@pytest.mark.slow
 def test_isolator_stick_slip():
     """Section in a stick phase, found without the engine: the paper's shooting on the Karnopp model
     from the grazing stick orbit (the App. A response scaled to the structural-change limit A_L of
@@ -218,11 +222,13 @@ def test_isolator_stick_slip():
         limit_amplitude("isolator", p) / abs(stick_amplitudes(p)[0])
     )
     first = shoot_karnopp("isolator", p, grazing)
-    assert first.converged and first.iterations <= 12, first.message  # measured 10
+    assert first.converged, first.message
+    assert first.iterations <= 12, first.message  # measured 10
     t = np.linspace(0.0, T, 2001)
     run = simulate_karnopp("isolator", p, (0.0, T), first.y0, nu=first.nu, rtol=1e-10, atol=1e-12, t_eval=t)
     stick = run.sticking.astype(int)
-    assert stick.any() and not stick.all()
+    assert stick.any()
+    assert not stick.all()
     # longest run of sticking samples, the period being cyclic (roll so that index 0 slips)
     shift = int(np.flatnonzero(stick == 0)[0])
     rolled = np.roll(stick[:-1], -shift)
@@ -235,15 +241,18 @@ def test_isolator_stick_slip():
     exact = periodic_orbit(
         system, p, guess, "stick", t0=t0, settings=hybrid.ShootingOptions(transient_periods=0)
     )
-    assert exact.converged and exact.mode0 == "stick", exact.message
+    assert exact.converged, exact.message
+    assert exact.mode0 == "stick", exact.message
     assert exact.t0 == t0
     x_exact = np.asarray(exact.x0[:5])
     assert np.abs(run.y[i0, :5] - x_exact).max() <= 2e-6 * np.abs(x_exact).max()
     assert np.abs(run.y[-1, :5] - first.y0).max() <= 1e-8 * np.abs(first.y0).max()  # the run closes
     assert matched(first.multipliers, np.asarray(exact.multipliers)) <= 1e-4
-    assert first.residual <= 1e-9 and 0.99 < abs(first.multipliers[0]) < 1.0
+    assert first.residual <= 1e-9
+    assert 0.99 < abs(first.multipliers[0]) < 1.0
 
 
+@pytest.mark.slow
 def test_non_convergence_is_returned_as_data():
     """From the stick response at resonance (A1 = 8 m; the orbit has 3.3 m) Newton's method first
     falls to the grazing amplitude (~1.9 m, slip just starting), where no halving of the step
@@ -257,15 +266,20 @@ def test_non_convergence_is_returned_as_data():
     assert orbit.iterations == 6
     assert orbit.non_monotone >= 1
     assert orbit.residual > 1e-3
-    assert orbit.message.startswith("not converged") and "max_iter = 6" in orbit.message
+    assert orbit.message.startswith("not converged")
+    assert "max_iter = 6" in orbit.message
     assert "without a decrease" in orbit.message
     assert orbit.n_solves > 11 * 7
-    assert np.all(np.isfinite(orbit.monodromy)) and orbit.multipliers.shape == (5,)
+    assert np.all(np.isfinite(orbit.monodromy))
+    assert orbit.multipliers.shape == (5,)
     assert orbit.multipliers.dtype == np.complex128
-    assert math.isfinite(orbit.amplitude_x1) and math.isfinite(orbit.amplitude_x2)
+    assert math.isfinite(orbit.amplitude_x1)
+    assert math.isfinite(orbit.amplitude_x2)
 
     at_guess = shoot_karnopp("absorber", p, guess, max_iter=0)
-    assert not at_guess.converged and at_guess.iterations == 0 and at_guess.n_solves == 11
+    assert not at_guess.converged
+    assert at_guess.iterations == 0
+    assert at_guess.n_solves == 11
     np.testing.assert_array_equal(at_guess.y0, guess)
     with pytest.raises(AttributeError):
         at_guess.converged = True  # frozen

@@ -86,12 +86,14 @@ def test_stick_amplitudes_vectorised_and_antiresonance():
     assert a1.shape == a2.shape == (2, 2)
     for (i, j), om in np.ndenumerate(omegas):
         b1, b2 = stick_amplitudes(ABSORBER, om)
-        assert b1 == a1[i, j] and b2 == a2[i, j]
+        assert b1 == a1[i, j]
+        assert b2 == a2[i, j]
     # Antiresonance of the primary mass at sqrt(c2/m2) = 1 rad/s; static limit F/c1.
     a1_ar, _ = stick_amplitudes(ABSORBER, 1.0)
     assert abs(a1_ar) < 1e-15
     a1_0, a2_0 = stick_amplitudes(ABSORBER, 0.0)
-    assert a1_0 == pytest.approx(0.01) and a2_0 == pytest.approx(0.01)
+    assert a1_0 == pytest.approx(0.01)
+    assert a2_0 == pytest.approx(0.01)
 
 
 def test_limit_amplitude_absorber_hand_value():
