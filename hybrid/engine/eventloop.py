@@ -107,11 +107,16 @@ class Run:
         self.careful: dict[int, FlowSolver] = {}  # solvers with a small first step (see segment)
         self.budget: Budget | None = None
         self.events: list[TransitionRecord] = []
-        self.recent = deque(maxlen=options.zeno_count)
+        # a burst counts this many switches (per component of a composed system: contacts may switch
+        # together at one instant)
+        self.recent = deque(maxlen=options.zeno_count * (1 + len(cs.system.components)))
         self.nfev = self.njev = self.n_steps = 0
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
+        # Switches at one instant: each component of a composed system may switch in one chain (a
+        # symmetric chain of contacts sticks all at once), a few times each.
+        self.max_chain = options.max_chain * (1 + len(cs.system.components))
         self.with_outputs = with_outputs  # evaluate the outputs (samples, start and final values)
 
     # ------------------------------------------------------------------
@@ -205,6 +210,8 @@ class Run:
         ``disarmed`` mapping guard index to the safe sign reported to the solver while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
+        states: dict[int, list[np.ndarray]] = {}  # the states each mode of the chain was entered with
+        fired: list[str] = []  # the transitions of the chain
         unresolved: list[str] = []  # switches of the chain decided within a guard's noise level
         pending = len(self.events) - 1 if after_switch else None
         while True:
@@ -248,14 +255,24 @@ class Run:
                 yp = cm.derivatives(t, y) if self.integ.needs_derivatives else None
                 return mode, y, yp, disarmed
             visited.append((mode, y))
+            fired.append(fire.name)
             y_new = self.apply_reset(fire, t, y)
             target = fire.target
             # A chain may pass a mode twice if the state changed on the way (an inconsistent
             # initial state relaxes through an instantaneous slip); the same mode with the same
             # state is a loop.
-            loop = any(m == target and np.allclose(ym, y_new, rtol=1e-13, atol=1e-15) for m, ym in visited)
-            if loop or len(visited) > self.opt.max_chain:
-                path = " -> ".join([self.cs.mode_name(m) for m, _ in visited] + [self.cs.mode_name(target)])
+            seen = states.setdefault(mode, [])
+            seen.append(y)
+            loop = any(np.allclose(ym, y_new, rtol=1e-13, atol=1e-15) for ym in states.get(target, ()))
+            if loop or len(visited) > self.max_chain:
+                if self.cs.system.composed:  # its modes' names are long: the switches say what happened
+                    path = f"mode `{self.cs.mode_name(visited[0][0])}` through the switches " + " -> ".join(
+                        fired
+                    )
+                else:
+                    path = " -> ".join(
+                        [self.cs.mode_name(m) for m, _ in visited] + [self.cs.mode_name(target)]
+                    )
                 if target == mode:
                     raise _Stop(
                         Status.ZENO,
@@ -291,7 +308,7 @@ class Run:
         return out
 
     def log(self, t, cm, g, h, y_minus, y_plus, target, chained) -> None:
-        tgt = self.cs.modes[target]
+        target_name = self.cs.mode_name(target)
         self.current = (t, np.array(y_minus), cm.index)
         # x_plus is completed (slave variables re-solved) lazily: store the reset state.
         if self.rec.n_events + len(self.events) >= self.max_transitions:
@@ -302,7 +319,7 @@ class Run:
             )
         self.events.append(
             TransitionRecord(
-                t, cm.name, tgt.name, g.name, float(h), np.array(y_minus), np.array(y_plus), chained
+                t, cm.name, target_name, g.name, float(h), np.array(y_minus), np.array(y_plus), chained
             )
         )
         self.recent.append(t)
@@ -310,7 +327,7 @@ class Run:
             raise _Stop(
                 Status.ZENO,
                 f"Zeno burst: {len(self.recent)} transitions within {self.recent[-1] - self.recent[0]:.3g} s "
-                f"before t={t!r} (last {cm.name} -> {tgt.name} by `{g.name}`); the model accumulates switches "
+                f"before t={t!r} (last {cm.name} -> {target_name} by `{g.name}`); the model accumulates switches "
                 "in a vanishing time",
             )
 

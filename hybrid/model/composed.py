@@ -26,7 +26,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
+from ..core.errors import AlgebraicSolveError
 from .codegen import compile_many
 from .expr import ZERO, Expr, add, diff, free_symbols, mul, num, sub, substitute, sym
 from .guard import CompiledGuard
@@ -248,6 +251,13 @@ class ComposedForm:
                 compile_many(exprs, plain, "outputs", namespace=namespace, vector=True) if exprs else None
             )
         self._guards: dict[tuple[int, int, int], object] = {}  # compiled guards by (part, local, j)
+        self.never = [_never(s) for s in range(nslot)]  # the guard of a slot a mode leaves unused
+        self.zeros = np.zeros((n, n))
+        self.zeros.flags.writeable = False
+        # Is the block of dF/dy in the slave variables independent of the state (linear slave
+        # equations, as a friction contact's)? Then each mode inverts it once.
+        state = set(names) | {"t"}
+        self.constant_slave_block = not any(free_symbols(d) & state for _, _, d in self.jac_terms)
         self.halts = [[md.get("halt", "") for md in modes] for modes in self.part_modes]
         own_halts = [m.halt for m in system.modes]
         self.halts[0] = own_halts
@@ -272,7 +282,9 @@ def _sum(terms: list[Expr]) -> Expr:
 class ComposedMode(ModeMethods):
     """One mode of a system with components: its indicators and the shared generated functions,
     behind the interface of :class:`hybrid.model.compiled.CompiledMode` (built without compiling:
-    microseconds). Created by :class:`hybrid.model.compiled.CompiledSystem`."""
+    microseconds; what only some callers read, e.g. the rows as expressions, is made on first
+    use). The slave variables are solved with a sparse LU factorisation of their block of
+    ``dF/dy`` (made once per mode where that block does not depend on the state)."""
 
     def __init__(self, cs, form: ComposedForm, key: tuple[int, ...], index: int):
         self.form = form
@@ -287,36 +299,26 @@ class ComposedMode(ModeMethods):
         self._ns = form._ns
         self._params = cs.params
         owner = form.owner
-        is_diff = np.zeros(n, dtype=bool)
-        f_expr: dict[int, Expr] = {}
-        g_expr: dict[int, Expr] = {}
         nfree = len(cs.free)
+        is_diff = np.zeros(n, dtype=bool)
         for i in range(n):
-            part = 0 if i >= n - nfree else owner[i]
-            local = 0 if i >= n - nfree else key[part]
-            d, e = form.alt[i][local]
-            is_diff[i] = d
-            (f_expr if d else g_expr)[i] = e
+            local = 0 if i >= n - nfree else key[owner[i]]
+            is_diff[i] = form.alt[i][local][0]
         self.is_diff = is_diff
         self.diff_idx = np.flatnonzero(is_diff)
         self.alg_idx = np.flatnonzero(~is_diff)
-        self.f_expr = f_expr
-        self.g_expr = g_expr
         self._f_pos = self.diff_idx
+        self._nfree = nfree
         res, jac, guards = form.res, form.jac, form.guards_fn
         self._res_fn = lambda v: res([*v, *ind])
         self._jac_fn = (lambda v: jac([*v, *ind])) if jac is not None else None
         self._guards_fn = (lambda v: guards([*v, *ind])) if guards is not None else None
         self._jac_at = form.jac_at
         self.jac_terms = form.jac_terms
-        self.jac_base = np.zeros((n, n))
-        self.cj_mask = np.diag(is_diff.astype(float))
-        self._gzz_inv = None
+        self.jac_base = form.zeros  # every entry is in jac_terms (weighted by the indicators)
         self._ix_ad = np.ix_(self.alg_idx, self.diff_idx)
         self._ix_aa = np.ix_(self.alg_idx, self.alg_idx)
         rows_t = form.rows_t
-        alg = self.alg_idx
-        self.g_t = [(int(i), (lambda v, i=int(i): rows_t([*v, *ind])[i])) for i in alg]
         self._rows_t = lambda v: rows_t([*v, *ind])
         # Guards: one per slot, the part's transition where its mode has one, else never firing.
         guards_out = []
@@ -326,14 +328,129 @@ class ComposedMode(ModeMethods):
                 if j < len(lst):
                     g = _compiled_guard(cs, form, lst[j])
                     tkey = key[:part] + (lst[j].target_local,) + key[part + 1 :]
-                    guards_out.append(replace(g, index=slot, target=cs.intern(tkey)))
+                    guards_out.append(
+                        CompiledGuard(
+                            slot,
+                            g.transition,
+                            g.name,
+                            cs.intern(tkey),
+                            g.direction,
+                            g.expr,
+                            g.fn,
+                            g.grad,
+                            g.grad_t,
+                            g.reset,
+                            g.reset_expr,
+                        )
+                    )
                 else:
-                    guards_out.append(_never(slot))
+                    guards_out.append(form.never[slot])
         self.guards = tuple(guards_out)
         self.outputs = form.outputs[key[0]]
         self._outputs_vec = form.outputs_vec[key[0]]
         halts = [form.halts[part][local] for part, local in enumerate(key)]
         self.halt = "; ".join(h for h in halts if h)
+        self._lu = None  # the slave block's LU factorisation, where it is constant
+
+    # -- made on first use --------------------------------------------------------------------
+    def _rows(self) -> tuple[dict, dict]:
+        hit = self.__dict__.get("_exprs")
+        if hit is None:
+            f_expr, g_expr = {}, {}
+            for i in range(self.n):
+                local = 0 if i >= self.n - self._nfree else self.key[self.form.owner[i]]
+                d, e = self.form.alt[i][local]
+                (f_expr if d else g_expr)[i] = e
+            hit = self.__dict__["_exprs"] = (f_expr, g_expr)
+        return hit
+
+    @property
+    def f_expr(self) -> dict:
+        """``{row: derivative}`` of the differential rows (expressions, parameters folded)."""
+        return self._rows()[0]
+
+    @property
+    def g_expr(self) -> dict:
+        """``{row: residual}`` of the algebraic rows."""
+        return self._rows()[1]
+
+    @property
+    def g_t(self) -> list:
+        """``(row, v -> dg/dt)`` of the algebraic rows (as :class:`CompiledMode`'s)."""
+        rows_t = self._rows_t
+        return [(int(i), (lambda v, i=int(i): rows_t(v)[i])) for i in self.alg_idx]
+
+    @property
+    def cj_mask(self) -> np.ndarray:
+        return np.diag(self.is_diff.astype(float))
+
+    @property
+    def _gzz_inv(self) -> None:
+        return None  # the slave block is solved by sparse LU (see solve_algebraic)
+
+    # -- sparse dF/dy ----------------------------------------------------------------------------
+    def sparse_dFdy(self, t: float, y: np.ndarray) -> sp.csr_array:
+        """``dF/dy`` as a sparse matrix (rows: -df/dy differential, dg/dy slave)."""
+        i, j = self._jac_at
+        if self._jac_fn is None:
+            return sp.csr_array((self.n, self.n))
+        vals = np.asarray(self._jac_fn([t, *np.asarray(y, dtype=float).tolist()]), dtype=float)
+        return sp.csr_array((vals, (i, j)), shape=(self.n, self.n))
+
+    def _slave_lu(self, t: float, y: np.ndarray):
+        """A factorisation of the slave block of ``dF/dy`` at ``(t, y)`` (kept where it is constant)."""
+        if self._lu is not None:
+            return self._lu
+        a = self.alg_idx
+        J = self.sparse_dFdy(t, y)
+        try:
+            lu = spla.splu(sp.csc_array(J[a][:, a]))
+        except RuntimeError:
+            raise AlgebraicSolveError(
+                f"mode `{self.name}`: the algebraic equations are singular in the slave variables at t={t!r}"
+            ) from None
+        if self.form.constant_slave_block:
+            self._lu = lu
+        return lu
+
+    def solve_algebraic(
+        self, t: float, y: np.ndarray, *, tol: float = 1e-14, maxiter: int = 50
+    ) -> np.ndarray:
+        """Return ``y`` with the slave variables solved by Newton's method (sparse LU)."""
+        y = np.array(y, dtype=float)
+        a = self.alg_idx
+        if a.size == 0:
+            return y
+        zero = [0.0] * self.n
+        res = None
+        for _ in range(maxiter):
+            res = np.asarray(self._res_fn([t, *y.tolist(), *zero]), dtype=float)
+            step = self._slave_lu(t, y).solve(res[a])
+            y[a] -= step
+            if not np.all(np.isfinite(step)):
+                break
+            if np.all(np.abs(step) <= tol * (1.0 + np.abs(y[a]))):
+                res = np.asarray(self._res_fn([t, *y.tolist(), *zero]), dtype=float)
+                if np.all(np.isfinite(res[a])):
+                    return y
+        worst = np.max(np.abs(res[a])) if res is not None else float("nan")
+        raise AlgebraicSolveError(
+            f"mode `{self.name}`: Newton's method did not solve the algebraic equations at t={t!r} "
+            f"(residual {worst:.3g})"
+        )
+
+    def derivatives(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Consistent ``y'``: differential rows from the vector field, slave rows from the
+        differentiated constraint ``g_z z' = -(g_x x' + g_t)`` (sparse)."""
+        yp = self.rhs(t, y)
+        a, d = self.alg_idx, self.diff_idx
+        if a.size:
+            J = self.sparse_dFdy(t, y)
+            v = [t, *np.asarray(y, dtype=float).tolist()]
+            gt = np.asarray(self._rows_t(v), dtype=float)[a]
+            rhs = -(J[a][:, d] @ yp[d] + gt)
+            yp[a] = self._slave_lu(t, y).solve(rhs)
+        return yp
 
     def guard_noise_scale(self, t: float, y: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """``sum_j |dh_s/dy_j| scale_j`` for every guard slot ``s`` (one call for all)."""
