@@ -52,6 +52,7 @@ from .engine.simulate import simulate as simulate
 from .engine.trajectory import Status as Status
 from .engine.trajectory import Trajectory as Trajectory
 from .engine.trajectory import TransitionRecord as TransitionRecord
+from .model.elements import Component as Component
 from .model.elements import Mode as Mode
 from .model.elements import Parameter as Parameter
 from .model.elements import Transition as Transition
@@ -79,6 +80,7 @@ from .studies.sweep import model_hash as model_hash
 from .studies.sweep import sweep as sweep
 
 __all__ = [
+    "Component",
     "AlgebraicSolveError",
     "autonomous_orbit",
     "Axis",

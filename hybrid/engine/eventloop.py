@@ -236,12 +236,12 @@ class Run:
                         series_at = self.integ.guard_series(self.cs, mode, t, y, self.opt.taylor_order)
                     s = lead_sign(series_at(g.index), eta)
                     if d != 0 and s == d:
-                        fire = g
+                        fire, coincident = g, True
                         unresolved.append(f"`{g.name}` of mode `{cm.name}` ({h:.3g} within {eta:.3g})")
                         break
                     disarmed[g.index] = s if s != 0 else (-float(d) if d else 1.0)
                 elif d != 0 and d * h > 0:
-                    fire = g
+                    fire, coincident = g, False
                     break
             if fire is None:
                 halt = cm.halt
@@ -294,7 +294,7 @@ class Run:
                     "check the guards' directions and the model's sliding modes (a state that both neighbours "
                     "push onto a surface needs a mode that holds it there)",
                 )
-            self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True)
+            self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True, coincident=coincident)
             pending = len(self.events) - 1
             mode, y = target, y_new
 
@@ -307,7 +307,7 @@ class Run:
             out[i] = fn(v)
         return out
 
-    def log(self, t, cm, g, h, y_minus, y_plus, target, chained) -> None:
+    def log(self, t, cm, g, h, y_minus, y_plus, target, chained, coincident=False) -> None:
         target_name = self.cs.mode_name(target)
         self.current = (t, np.array(y_minus), cm.index)
         # x_plus is completed (slave variables re-solved) lazily: store the reset state.
@@ -319,7 +319,15 @@ class Run:
             )
         self.events.append(
             TransitionRecord(
-                t, cm.name, target_name, g.name, float(h), np.array(y_minus), np.array(y_plus), chained
+                t,
+                cm.name,
+                target_name,
+                g.name,
+                float(h),
+                np.array(y_minus),
+                np.array(y_plus),
+                chained,
+                coincident and chained,
             )
         )
         self.recent.append(t)
@@ -335,7 +343,15 @@ class Run:
         """Store the consistent post-switch state (slave variables solved in the target mode)."""
         ev = self.events[index]
         self.events[index] = TransitionRecord(
-            ev.t, ev.source, ev.target, ev.guard, ev.guard_value, ev.x_minus, np.array(y_plus), ev.chained
+            ev.t,
+            ev.source,
+            ev.target,
+            ev.guard,
+            ev.guard_value,
+            ev.x_minus,
+            np.array(y_plus),
+            ev.chained,
+            ev.coincident,
         )
 
     # ------------------------------------------------------------------

@@ -122,6 +122,9 @@ class ModeSolver:
         Internal steps allowed per call.
     first_step : float
         First step of every (re)start; 0: IDA's own estimate.
+    band : (int, int), optional
+        Lower and upper bandwidth of the iteration matrix in every mode (a system with components
+        whose couplings are local, e.g. a chain): IDA's banded solver instead of the dense one.
     """
 
     def __init__(
@@ -133,6 +136,7 @@ class ModeSolver:
         max_step: float,
         max_num_steps: int,
         first_step: float = 0.0,
+        band: tuple[int, int] | None = None,
     ):
         self.mode = mode
         ng = len(mode.guards)
@@ -172,6 +176,8 @@ class ModeSolver:
             jacfn=jacfn,
             calc_initcond=None,
         )
+        if band is not None:
+            opts.update(linsolver="band", lband=int(band[0]), uband=int(band[1]))
         if mode.alg_idx.size:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
@@ -512,6 +518,7 @@ class IDAIntegrator(Integrator):
                 max_step=max_step,
                 max_num_steps=max_num_steps,
                 first_step=first_step,
+                band=cs.form.band if cs.form is not None else None,
             )
         return s
 

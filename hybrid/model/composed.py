@@ -37,6 +37,10 @@ from .modebase import ModeMethods
 
 __all__ = ["ComposedForm", "ComposedMode", "Slot"]
 
+#: Systems with at least this many variables whose iteration matrix is banded (bandwidth at most a
+#: quarter of the size) get IDA's banded linear solver.
+BAND_MIN = 64
+
 #: Prefixes of the generated functions' slots (not valid model names: no clash).
 _YP = " yp"
 _IND = " ind"
@@ -157,6 +161,7 @@ class ComposedForm:
         slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
         slots.update({s: n + 1 + k for k, s in enumerate(ind_syms)})
         self._slots = slots
+        self.plain_slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
         rows: list[Expr] = []
         grows: list[Expr] = []  # the same without y' (dF/dy, dF/dt)
         for i in range(n):
@@ -186,6 +191,11 @@ class ComposedForm:
             np.array([j for _, j, _ in terms], dtype=int),
         )
         self.rows_t = compile_many([diff(e, "t") for e in grows], slots, "rows_t", namespace=namespace)
+        # The bandwidth of dF/dy + cj dF/dy' in every mode; IDA's banded solver where it is narrow.
+        ii, jj = self.jac_at
+        lower = int(max(0, np.max(ii - jj))) if ii.size else 0
+        upper = int(max(0, np.max(jj - ii))) if ii.size else 0
+        self.band = (lower, upper) if n >= BAND_MIN and lower + upper + 1 <= n // 4 else None
         # Guard slots: the own modes' transitions first, then each component's.
         transitions = [list(enumerate(zip(system.transitions, parsed.transitions, strict=True)))] + [
             list(enumerate(zip(c.transitions, cd["transitions"], strict=True)))
@@ -297,6 +307,7 @@ class ComposedMode(ModeMethods):
         self._ind = ind
         self._runtime = form._runtime
         self._ns = form._ns
+        self._slots = form.plain_slots
         self._params = cs.params
         owner = form.owner
         nfree = len(cs.free)

@@ -12,7 +12,7 @@ from types import MappingProxyType
 
 from ..core.errors import InputError, ModelError
 
-__all__ = ["Mode", "Parameter", "Transition", "Variable"]
+__all__ = ["Component", "Mode", "Parameter", "Transition", "Variable"]
 
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")

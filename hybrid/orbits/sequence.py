@@ -267,7 +267,7 @@ def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
         # mode's differential variables, the only rows the jump reads: its slave rows are re-solved)
         r0 = np.asarray(ev.x_plus, dtype=float) - R_y @ np.asarray(ev.x_minus, dtype=float)
         step = (src, k, dst, R_y, r0)
-        if ev.chained:
+        if ev.chained and not ev.coincident:
             if not out or out[-1].target != src:
                 return None
             out[-1] = Switch(out[-1].t, (*out[-1].steps, step))
