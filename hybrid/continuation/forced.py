@@ -46,6 +46,7 @@ from ..orbits.orbit import (
     balanced,
     finish_orbit,
     is_family,
+    local_fractions,
     mode_fractions,
 )
 from ..orbits.section import choose_section_period
@@ -64,9 +65,11 @@ class _Summary:
     """What a located mode change needs of an orbit not finished yet: its run (events, mode
     intervals) and the time fraction of each mode."""
 
-    def __init__(self, tr, period: float):
+    def __init__(self, tr, period: float, system):
         self.trajectory = tr
+        self.system = system
         self.mode_fractions = mode_fractions(tr, period)
+        self.local_fractions = local_fractions(system, self.mode_fractions)
 
 
 class _Point:
@@ -312,7 +315,7 @@ class _Continuer:
                 new = _Point(y, p, pt.mode, pt.phi, iterations=it)
                 new.tangent = self.null_vector(A, D, tau)
                 if light:
-                    new.summary = _Summary(tr, T)
+                    new.summary = _Summary(tr, T, self.system)
                     new.make = partial(self.complete, new, nw, t0, it, res, samples, M)
                 else:
                     new.orbit = finish_orbit(

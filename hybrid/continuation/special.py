@@ -97,12 +97,28 @@ def signature(o) -> tuple:
     """Switch instants per period, the modes occupied for a positive time, and their cyclic order.
 
     A mode passed through at one instant (a chained switch) does not count, so the loss of a
-    phase is seen; the cyclic order does not depend on where the section lies.
+    phase is seen; the cyclic order does not depend on where the section lies. For a system with
+    components, modes are those of its parts (``component.mode``, see
+    :attr:`hybrid.HybridSystem.local_mode_names`) and the order is each part's own: two components
+    that switch in the other order (a crossing of their switch times) change neither.
     """
     instants = sum(1 for e in o.trajectory.events if not e.chained)
-    ivs = [(a, b, m) for a, b, m in o.trajectory.mode_intervals() if b > a]
-    order = _cyclic([m for _, _, m in ivs])
-    return instants, frozenset(m for m, f in o.mode_fractions.items() if f > 0), order
+    ivs = [m for a, b, m in o.trajectory.mode_intervals() if b > a]
+    system = o.system
+    if not system.components:
+        return instants, frozenset(m for m, f in o.mode_fractions.items() if f > 0), _cyclic(ivs)
+    parts = [system.local_modes_of(m) for m in ivs]
+    order = tuple(_cyclic([p[k] for p in parts]) for k in range(1 + len(system.components)))
+    return instants, frozenset(m for m, f in o.local_fractions.items() if f > 0), order
+
+
+def _orders(sa: tuple, sb: tuple) -> str:
+    """The cyclic orders of two signatures, where they differ (for a system with components, the
+    parts whose order changes)."""
+    if not sa[2] or not isinstance(sa[2][0], tuple):
+        return f"modes {' '.join(sa[2])} -> {' '.join(sb[2])}"
+    diff = [(a, b) for a, b in zip(sa[2], sb[2], strict=True) if a != b][:3]
+    return "; ".join(f"{' '.join(a)} -> {' '.join(b)}" for a, b in diff) or "the same modes"
 
 
 def tests(o) -> tuple[float, float] | None:
@@ -144,8 +160,7 @@ def detect(a, b) -> list[tuple[str, str]]:
             out.append(
                 (
                     "grazing",
-                    f"switches per period change from {sa[0]} to {sb[0]} "
-                    f"(modes {' '.join(sa[2])} -> {' '.join(sb[2])})",
+                    f"switches per period change from {sa[0]} to {sb[0]} ({_orders(sa, sb)})",
                 )
             )
         for _kind, desc in jumps:
@@ -245,7 +260,8 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
 
 
 def _fraction(o, modes: frozenset) -> float:
-    return float(sum(o.mode_fractions.get(m, 0.0) for m in modes))
+    fractions = o.local_fractions
+    return float(sum(fractions.get(m, 0.0) for m in modes))
 
 
 def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:

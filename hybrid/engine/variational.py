@@ -42,31 +42,9 @@ __all__ = ["Sensitivity", "projection_jacobian", "saltation"]
 
 
 def projection_jacobian(mode: CompiledMode, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Derivatives of the projection onto ``mode``'s constraint manifold.
-
-    The projection keeps the differential variables and replaces the slave
-    variables ``z`` by the solution of ``g(t, y_d, z) = 0``.
-
-    Returns
-    -------
-    P_y : ndarray, shape (n, n)
-        ``d(Pi)/dy``: identity on differential rows, ``-g_z^-1 g_d`` on slave rows.
-    P_t : ndarray, shape (n,)
-        ``d(Pi)/dt``: ``-g_z^-1 g_t`` on slave rows.
-    """
-    n = mode.n
-    P_y = np.eye(n)
-    P_t = np.zeros(n)
-    a, d = mode.alg_idx, mode.diff_idx
-    if a.size:
-        J = mode.dFdy(t, y)
-        Gz = J[np.ix_(a, a)]
-        P_y[a, :] = 0.0
-        P_y[np.ix_(a, d)] = -np.linalg.solve(Gz, J[np.ix_(a, d)])
-        v = [t, *np.asarray(y, dtype=float).tolist()]
-        gt = np.array([fn(v) for _, fn in mode.g_t])
-        P_t[a] = -np.linalg.solve(Gz, gt)
-    return P_y, P_t
+    """Derivatives ``(P_y, P_t)`` of the projection onto ``mode``'s constraint manifold (see
+    :meth:`hybrid.model.modebase.ModeMethods.projection`)."""
+    return mode.projection(t, y)
 
 
 class ResetJacobians:

@@ -399,30 +399,87 @@ class ComposedMode(ModeMethods):
     def _gzz_inv(self) -> None:
         return None  # the slave block is solved by sparse LU (see solve_algebraic)
 
-    # -- sparse dF/dy ----------------------------------------------------------------------------
+    # -- the slave block of dF/dy -----------------------------------------------------------------
     def sparse_dFdy(self, t: float, y: np.ndarray) -> sp.csr_array:
         """``dF/dy`` as a sparse matrix (rows: -df/dy differential, dg/dy slave)."""
         i, j = self._jac_at
         if self._jac_fn is None:
             return sp.csr_array((self.n, self.n))
-        vals = np.asarray(self._jac_fn([t, *np.asarray(y, dtype=float).tolist()]), dtype=float)
-        return sp.csr_array((vals, (i, j)), shape=(self.n, self.n))
+        return sp.csr_array((self._jac_vals(t, y), (i, j)), shape=(self.n, self.n))
 
-    def _slave_lu(self, t: float, y: np.ndarray):
-        """A factorisation of the slave block of ``dF/dy`` at ``(t, y)`` (kept where it is constant)."""
+    def _jac_vals(self, t: float, y: np.ndarray) -> np.ndarray:
+        return np.asarray(self._jac_fn([t, *np.asarray(y, dtype=float).tolist()]), dtype=float)
+
+    def _pattern(self) -> tuple:
+        """Where the entries of ``dF/dy`` fall in the slave rows: ``(entries, rows, columns)`` of
+        the block in the differential variables, then of the block in the slave variables (rows
+        and columns numbered within the blocks)."""
+        hit = self.__dict__.get("_pattern_")
+        if hit is None:
+            i, j = self._jac_at
+            pa = np.full(self.n, -1)
+            pa[self.alg_idx] = np.arange(self.alg_idx.size)
+            pd = np.full(self.n, -1)
+            pd[self.diff_idx] = np.arange(self.diff_idx.size)
+            ad = np.flatnonzero((pa[i] >= 0) & (pd[j] >= 0))
+            aa = np.flatnonzero((pa[i] >= 0) & (pa[j] >= 0))
+            hit = self.__dict__["_pattern_"] = (ad, pa[i[ad]], pd[j[ad]], aa, pa[i[aa]], pa[j[aa]])
+        return hit
+
+    def _slave_d(self, vals: np.ndarray):
+        """``dg/dy_d``, the slave rows' block in the differential variables (dense when small)."""
+        ad, r, c = self._pattern()[:3]
+        shape = (self.alg_idx.size, self.diff_idx.size)
+        if self.alg_idx.size <= DENSE_SLAVES:
+            out = np.zeros(shape)
+            np.add.at(out, (r, c), vals[ad])
+            return out
+        return sp.csr_array((vals[ad], (r, c)), shape=shape)
+
+    def _slave_lu(self, t: float, y: np.ndarray, vals: np.ndarray | None = None):
+        """A factorisation of the slave block of ``dF/dy`` at ``(t, y)`` (kept where it is
+        constant): LU of a dense block up to :data:`DENSE_SLAVES` slave variables, sparse LU above."""
         if self._lu is not None:
             return self._lu
-        a = self.alg_idx
-        J = self.sparse_dFdy(t, y)
-        try:
-            lu = spla.splu(sp.csc_array(J[a][:, a]))
-        except RuntimeError:
+        if vals is None:
+            vals = self._jac_vals(t, y)
+        aa, r, c = self._pattern()[3:]
+        na = self.alg_idx.size
+        if na <= DENSE_SLAVES:
+            G = np.zeros((na, na))
+            np.add.at(G, (r, c), vals[aa])
+            lu = _DenseLU(G)
+            ok = lu.regular
+        else:
+            try:
+                lu = spla.splu(sp.csc_array((vals[aa], (r, c)), shape=(na, na)))
+                ok = True
+            except RuntimeError:
+                ok = False
+        if not ok:
             raise AlgebraicSolveError(
                 f"mode `{self.name}`: the algebraic equations are singular in the slave variables at t={t!r}"
-            ) from None
+            )
         if self.form.constant_slave_block:
             self._lu = lu
         return lu
+
+    def projection(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Derivatives of the projection onto the mode's constraint manifold (see
+        :meth:`ModeMethods.projection`), from the slave blocks."""
+        n = self.n
+        P_y = np.eye(n)
+        P_t = np.zeros(n)
+        a, d = self.alg_idx, self.diff_idx
+        if a.size:
+            vals = self._jac_vals(t, y)
+            lu = self._slave_lu(t, y, vals)
+            Gd = self._slave_d(vals)
+            P_y[a, :] = 0.0
+            P_y[np.ix_(a, d)] = -lu.solve(Gd if isinstance(Gd, np.ndarray) else Gd.toarray())
+            gt = np.asarray(self._rows_t([t, *np.asarray(y, dtype=float).tolist()]), dtype=float)[a]
+            P_t[a] = -lu.solve(gt)
+        return P_y, P_t
 
     def solve_algebraic(
         self, t: float, y: np.ndarray, *, tol: float = 1e-14, maxiter: int = 50
@@ -456,11 +513,11 @@ class ComposedMode(ModeMethods):
         yp = self.rhs(t, y)
         a, d = self.alg_idx, self.diff_idx
         if a.size:
-            J = self.sparse_dFdy(t, y)
+            vals = self._jac_vals(t, y)
             v = [t, *np.asarray(y, dtype=float).tolist()]
             gt = np.asarray(self._rows_t(v), dtype=float)[a]
-            rhs = -(J[a][:, d] @ yp[d] + gt)
-            yp[a] = self._slave_lu(t, y).solve(rhs)
+            rhs = -(self._slave_d(vals) @ yp[d] + gt)
+            yp[a] = self._slave_lu(t, y, vals).solve(rhs)
         return yp
 
     def guard_noise_scale(self, t: float, y: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -473,6 +530,25 @@ class ComposedMode(ModeMethods):
         s, j = self.form.guard_grad_at
         np.add.at(out, s, vals * scale[j])
         return out
+
+
+#: Up to this many slave variables, a mode's slave block is factorised as a dense matrix.
+DENSE_SLAVES = 64
+
+
+class _DenseLU:
+    """A small dense matrix's inverse, with the ``solve`` of SuperLU's (a matrix product: the
+    blocks are small and, for a contact's linear equations, inverted once per mode)."""
+
+    def __init__(self, G: np.ndarray):
+        try:
+            self.inverse = np.linalg.inv(G)
+            self.regular = bool(np.all(np.isfinite(self.inverse)))
+        except np.linalg.LinAlgError:
+            self.regular = False
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self.inverse @ b
 
 
 def _never(slot: int) -> CompiledGuard:

@@ -807,6 +807,21 @@ class HybridSystem:
             [self.initial_mode, *(c.initial_mode or c.modes[0].name for c in self.components)]
         )
 
+    @property
+    def local_mode_names(self) -> tuple[str, ...]:
+        """The modes of the system's parts: its own modes, then each component's local modes named
+        ``component.mode``; without components, :attr:`mode_names`. A few per component, never
+        their product: what a branch's table has a time-fraction column for."""
+        return (*self.mode_names, *(f"{c.name}.{m}" for c in self.components for m in c.mode_names))
+
+    def local_modes_of(self, name: str) -> tuple[str, ...]:
+        """The parts' modes (see :attr:`local_mode_names`) that mode ``name`` is made of: its own
+        mode, then one local mode per component; without components, ``(name,)``."""
+        if not self.components:
+            return (name,)
+        parts = name.split(MODE_SEPARATOR)
+        return (parts[0], *(f"{c.name}.{p}" for c, p in zip(self.components, parts[1:], strict=True)))
+
     def mode_key(self, name: str) -> tuple[int, ...]:
         """The indices of a mode's parts: its own mode, then the local mode of each component.
 

@@ -144,6 +144,13 @@ class PeriodicOrbit:
         return {"stable": True, "unstable": False}.get(self.stability)
 
     @property
+    def local_fractions(self) -> dict:
+        """Fraction of the period each part of the system spends in each of its modes, over
+        :attr:`hybrid.HybridSystem.local_mode_names` (``component.mode`` for a component's local
+        mode); without components, :attr:`mode_fractions`."""
+        return local_fractions(self.system, self.mode_fractions)
+
+    @property
     def transitions_per_period(self) -> int:
         return len(self.switch_times)
 
@@ -432,6 +439,18 @@ def mode_fractions(tr: Trajectory, period: float) -> dict[str, float]:
     for a, b, m in tr.mode_intervals():
         fr[m] = fr.get(m, 0.0) + (b - a) / period
     return fr
+
+
+def local_fractions(system: HybridSystem, fractions: dict[str, float]) -> dict[str, float]:
+    """Time fractions per mode (:func:`mode_fractions`) summed per mode of each part of the system
+    (see :attr:`hybrid.HybridSystem.local_mode_names`); without components, a copy."""
+    if not system.components:
+        return dict(fractions)
+    out: dict[str, float] = {}
+    for m, f in fractions.items():
+        for part in system.local_modes_of(m):
+            out[part] = out.get(part, 0.0) + f
+    return out
 
 
 def _classify(
