@@ -44,6 +44,7 @@ from ..orbits.orbit import (
     PeriodicOrbit,
     balance_scales,
     balanced,
+    family_dimension,
     finish_orbit,
     is_family,
     local_fractions,
@@ -109,9 +110,15 @@ def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: in
     its parameter value."""
     starts = [(pt, ds)]
     g = c.sh.gauge(new.y)
-    if g is not None and float(g[1] @ g[1]) > 0.0:
+    if g is not None and np.any(g.grad != 0.0):
         c.at(new.p)
-        y = new.y - g[0] * g[1] / float(g[1] @ g[1])
+        # the least change of the state that zeroes every gauge (to first order)
+        G = g.grad
+        y = new.y - (
+            g.values[0] * G[0] / float(G[0] @ G[0])
+            if g.size == 1
+            else np.linalg.lstsq(G, g.values, rcond=None)[0]
+        )
         starts.append((_Point(y, new.p, new.mode, new.phi, tangent=new.tangent), 0.0))
     for start, step in starts:
         try:
@@ -174,16 +181,17 @@ class _Continuer:
         rhs = -r
         g = self.sh.gauge(y)
         gval = None
-        if family and g is not None:
-            row, gval = g[1][d], g[0]
+        picked = g.pick(vt, max(1, family_dimension(sv)), d, bs) if (family and g is not None) else None
+        if picked is not None and picked.size:
+            rows, gval = g.grad[picked][:, d], g.values[picked]
         elif family and is_family(np.linalg.svd(A / bs[:, None], compute_uv=False)):
             # a family: [I - M, dP/dp] is rank-deficient too (at a fold only I - M is, and the
             # branch moves along that null vector: nothing may hold it there)
             row = vt[-1] / bs
-            gval = float(row @ (y[d] - (y if ref is None else ref)[d]))
+            rows, gval = row[None, :], np.array([float(row @ (y[d] - (y if ref is None else ref)[d]))])
         if gval is not None:
-            A = np.vstack([A, np.concatenate([row, [0.0]])])
-            rhs = np.concatenate([rhs, [-gval]])
+            A = np.vstack([A, np.hstack([rows, np.zeros((rows.shape[0], 1))])])
+            rhs = np.concatenate([rhs, -gval])
         return A, rhs, family, gval
 
     def correct(
@@ -298,7 +306,7 @@ class _Continuer:
                     self._coarse_jac = fit  # the conditioning last seen
                 if src is self.sh or fit:
                     break
-            gauge_ok = gval is None or abs(gval) <= self.tol * scale
+            gauge_ok = gval is None or float(np.max(np.abs(gval))) <= self.tol * scale
             delta = np.linalg.lstsq(Ab, rhs, rcond=1e-10)[0]
             # Converged: small residual and a Newton update at the noise level of the map
             # (integration error amplified by the conditioning of the bordered system).

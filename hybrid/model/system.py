@@ -115,8 +115,8 @@ class ParsedSystem:
         (variable -> Expr).
     period : Expr or None
         The forcing period's expression in the parameters.
-    gauge : Expr or None
-        The ``[orbit] gauge`` of a family of orbits.
+    gauge : tuple of Expr or None
+        The ``[orbit] gauge`` expressions of a family of orbits (one for a string).
     autonomous : dict
         The ``[orbit]`` hints of autonomous orbits (:mod:`hybrid.model.orbit_hints`).
     components : tuple of dict
@@ -178,7 +178,11 @@ class HybridSystem:
         Hints for periodic orbits: ``gauge``, an expression of the state
         (no ``t``) that selects one member of a family of periodic orbits
         (a neutral multiplier 1, e.g. the free offset of a stuck friction
-        element): the member with ``gauge = 0`` at the section is returned.
+        element): the member with ``gauge = 0`` at the section is returned. A list of
+        expressions serves families of several dimensions (e.g. one offset per element that may
+        stay stuck): for a family of ``q`` neutral directions, the ``q`` of them that fix those
+        directions best are set to 0 (chosen by a pivoted QR factorisation of their gradients
+        projected on the directions).
     components : tuple of Component
         Parts with local modes of their own (e.g. one per friction contact), composed with the
         system's own ``modes`` on demand: the system's mode is the tuple of its own mode and one
@@ -728,15 +732,26 @@ class HybridSystem:
         gauge = self.orbit.get("gauge")
         if gauge is None:
             self._set_cache("gauge", None)
-        else:
-            if not isinstance(gauge, str):
-                raise ModelError(f"{pre}: [orbit] `gauge` must be an expression string, got {gauge!r}")
-            g = _Expander(defs)(parse(gauge, base_known | set(defs), f"{pre}: orbit gauge"))
+            return
+        texts = [gauge] if isinstance(gauge, str) else gauge
+        if not isinstance(texts, (list, tuple)) or not texts or not all(isinstance(g, str) for g in texts):
+            raise ModelError(
+                f"{pre}: [orbit] `gauge` must be an expression string or a non-empty list of them, got {gauge!r}"
+            )
+        if len(texts) > len(self.variables):
+            raise ModelError(
+                f"{pre}: [orbit] `gauge` lists {len(texts)} expressions, more than the {len(self.variables)} "
+                "variables a family could leave free; list one per element that may stay fixed"
+            )
+        gauges = []
+        for text in texts:
+            g = _Expander(defs)(parse(text, base_known | set(defs), f"{pre}: orbit gauge"))
             if "t" in free_symbols(g) or not (free_symbols(g) & {v.name for v in self.variables}):
-                raise ModelError(f"{pre}: orbit gauge {gauge!r} must depend on the state and not on t")
+                raise ModelError(f"{pre}: orbit gauge {text!r} must depend on the state and not on t")
             if free_symbols(g) & set(self.quadratures):
-                raise ModelError(f"{pre}: orbit gauge {gauge!r} depends on a quadrature")
-            self._set_cache("gauge", g)
+                raise ModelError(f"{pre}: orbit gauge {text!r} depends on a quadrature")
+            gauges.append(g)
+        self._set_cache("gauge", tuple(gauges))
 
     def _set_cache(self, key: str, value) -> None:
         """Keep a part of :attr:`parsed` while the system is validated (construction only)."""

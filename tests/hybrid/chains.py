@@ -57,8 +57,8 @@ def _base(n: int, ring: bool):
     return variables, equations, parameters
 
 
-def composed_chain(n: int, ring: bool = False) -> HybridSystem:
-    """The chain with one component per contact."""
+def composed_chain(n: int, ring: bool = False, gauge=None) -> HybridSystem:
+    """The chain with one component per contact (``gauge``: its ``[orbit] gauge``, if any)."""
     variables, equations, parameters = _base(n, ring)
     components = [
         Component(f"c{i}", contact_modes(i, n, ring), contact_transitions(i)) for i in range(1, n + 1)
@@ -73,6 +73,7 @@ def composed_chain(n: int, ring: bool = False) -> HybridSystem:
         period="2*pi/Omega",
         initial_mode="motion",
         components=components,
+        orbit={} if gauge is None else {"gauge": gauge},
     )
 
 

@@ -302,3 +302,46 @@ def test_the_monodromy_of_a_composed_orbit_against_finite_differences():
     M = o.monodromy[np.ix_(rows, rows)]
     np.testing.assert_allclose(M, fd, rtol=0, atol=1e-7)
     assert math.isclose(o.period, 2 * math.pi, rel_tol=1e-15)
+
+
+def test_a_family_of_two_stuck_blocks_is_held_by_their_own_gauges():
+    """Blocks 2 and 5 of a 6-block chain hold (R = 5) all period: their offsets are free, a family
+    of two dimensions (two neutral multipliers 1). Of the gauges x1..x6 the two that move along the
+    family are picked, x2 and x5; with them at 0 block 1 (and 6) is a 1-block chain of stiffness
+    k + kc, whose orbit, computed on its own, it must equal."""
+    n = 6
+    p = chain_params(n, R2=5.0, R5=5.0)
+    o = hybrid.periodic_orbit(composed_chain(n, gauge=[f"x{i}" for i in range(1, n + 1)]), p, options=EXACT)
+    assert o.converged and o.family
+    assert o.multiplier_kinds.count("neutral") == 2
+    assert "the member with gauges `x2`, `x5` = 0 is returned" in o.message
+    # stuck all period at 0 (to rounding)
+    assert np.max(np.abs(o.trajectory["x2"])) < 1e-14 and np.max(np.abs(o.trajectory["x5"])) < 1e-14
+    for block, other in ((1, 1), (6, 6)):
+        q = chain_params(1, k=2.0, R1=p[f"R{other}"])
+        one = hybrid.periodic_orbit(composed_chain(1), q, options=EXACT)
+        assert one.converged and not one.family
+        # both from their sections to one instant
+        a = hybrid.simulate(composed_chain(n), p, (o.t0, 4 * math.pi), o.x0, mode0=o.mode0, options=EXACT)
+        b = hybrid.simulate(
+            composed_chain(1), q, (one.t0, 4 * math.pi), one.x0, mode0=one.mode0, options=EXACT
+        )
+        assert abs(a.final(f"x{block}") - b.final("x1")) < 1e-12
+        assert abs(o.amplitude[f"x{block}"] - one.amplitude["x1"]) < 1e-12
+
+
+def test_a_single_gauge_that_leaves_a_direction_free_says_so():
+    n = 6
+    p = chain_params(n, R2=5.0, R5=5.0)
+    o = hybrid.periodic_orbit(composed_chain(n, gauge="x1"), p, options=EXACT)
+    assert o.converged and o.multiplier_kinds.count("neutral") == 2
+    assert "1 of its directions held by no gauge" in o.message
+
+
+@pytest.mark.parametrize(
+    ("gauge", "words"),
+    [([], "non-empty list"), (["x1", 3], "non-empty list"), (["x1", "t"], "not on t"), (["zz"], "zz")],
+)
+def test_a_bad_gauge_list_is_refused_naming_it(gauge, words):
+    with pytest.raises(hybrid.ModelError, match=words):
+        composed_chain(2, gauge=gauge)
