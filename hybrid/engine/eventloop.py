@@ -227,7 +227,13 @@ class Run:
             fire, disarmed = None, {}
             series_at = None  # the guards' Taylor series along the flow from (t, y), made if a guard needs it
             etas = self.noises(cm, t, y)
-            for g in cm.guards:
+            if etas is None:
+                candidates = cm.guards
+            else:  # the guards that may fire or need a look, in order (the others do nothing)
+                dirs = cm.guard_directions
+                look = np.flatnonzero((np.abs(vals) <= etas) | (dirs * vals > 0))
+                candidates = (cm.guards[int(k)] for k in look)
+            for g in candidates:
                 h = vals[g.index]
                 d = g.direction
                 eta = etas[g.index] if etas is not None else self.noise(cm, g.index, t, y)

@@ -83,9 +83,9 @@ class ResetJacobians:
 
 
 def guard_index(mode: CompiledMode, name: str) -> int:
-    for g in mode.guards:
-        if g.name == name:
-            return g.index
+    k = mode.guard_slot(name)
+    if k is not None:
+        return k
     raise ModelError(f"mode `{mode.name}` has no transition `{name}`")
 
 

@@ -103,14 +103,15 @@ class ComposedAnalysis:
         forms = [self.analysis.forms[i] for i in idx]
         omega = self._omega(key, omegas, forms)
         parts = []
-        for i in idx:
+        part_slots, slot_of = slots
+        for p, (i, k) in enumerate(zip(idx, key, strict=True)):
             sp_part = self._sparse_parts.get(i)
             if sp_part is None:
-                sp_part = self._sparse_parts[i] = _SparsePart(self.analysis.forms[i])
+                sp_part = self._sparse_parts[i] = _SparsePart(
+                    self.analysis.forms[i], part_slots[p], len(slot_of[p][k]), self.one
+                )
             parts.append(sp_part)
-        return assemble_sparse(
-            parts, key, self.system.mode_label(key), self.names, vals, omega, slots, self.one
-        )
+        return assemble_sparse(parts, self.system.mode_label(key), self.names, vals, omega, part_slots)
 
     def assemble(self, key: tuple[int, ...], vals: np.ndarray, omegas: list, slots) -> tuple:
         """``(omega, d, a, q, M, P, Q, W)`` of the mode ``key`` from the coefficient values.
@@ -215,13 +216,25 @@ def _triplets(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 class _SparsePart:
-    """One part's coefficient rows as triplets (made once per part)."""
+    """One part's coefficient rows as triplets over the whole system's numbering (made once per
+    part and local mode): rows of ``F`` and ``G`` by variable, rows of ``W`` by guard slot (the
+    constant 1 in a slot the local mode leaves unused)."""
 
-    def __init__(self, form: ModeForm):
+    def __init__(self, form: ModeForm, slots: range, used: int, one: int):
         self.form = form
-        self.F = _triplets(form.F)
-        self.G = _triplets(form.G)
-        self.W = _triplets(form.Wu)
+        r, c, i = _triplets(form.F)
+        self.F = (np.asarray(form.d, dtype=int)[r], c, i)
+        r, c, i = _triplets(form.G)
+        self.G = (np.asarray(form.a, dtype=int)[r], c, i)
+        width = form.F.shape[1]
+        r, c, i = _triplets(form.Wu)
+        keep = r < used
+        unused = np.arange(used, len(slots))
+        self.W = (
+            np.concatenate([slots.start + r[keep], slots.start + unused]),
+            np.concatenate([c[keep], np.full(unused.size, width - 1)]),
+            np.concatenate([i[keep], np.full(unused.size, one)]),
+        )
         self.Q = [_triplets(Qj) for Qj in form.Qu]
 
 
@@ -251,12 +264,18 @@ class SparseAffineMode(AffineMode):
     def flow(self):
         return self.dense().flow()
 
+    def guard_row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Row ``k`` of ``W`` as ``(columns, values)`` (no sparse matrix made)."""
+        W = self.W
+        lo, hi = W.indptr[k], W.indptr[k + 1]
+        return W.indices[lo:hi], W.data[lo:hi]
+
     def guard_series(self, k: int, t: float, y: np.ndarray, order: int) -> np.ndarray:
         z = self.augment(t, y)
-        row = self.W[[k]]
+        cols, w = self.guard_row(k)
         out = np.empty(order + 1)
         for j in range(order + 1):
-            out[j] = float((row @ z)[0])
+            out[j] = float(w @ z[cols])
             z = (self.M @ z) / (j + 1)
         return out
 
@@ -278,48 +297,38 @@ class SparseAffineMode(AffineMode):
         return ypp
 
 
-def assemble_sparse(
-    parts: list[_SparsePart], key, label: str, names, vals: np.ndarray, omega, slots, one: int
-):
+def assemble_sparse(parts: list[_SparsePart], label: str, names, vals: np.ndarray, omega, part_slots):
     """``(omega, d, a, q, M, P, Q, W)`` of a mode, sparse: the parts' rows stacked, the slave
     variables eliminated by a sparse LU factorisation (``M`` keeps the sparsity of the couplings)."""
     n = len(names)
     forms = [p.form for p in parts]
     nf = 2 if omega is not None else 0
-    d = np.concatenate([f.d for f in forms]).astype(int)
-    a = np.concatenate([f.a for f in forms]).astype(int)
+    d = np.sort(np.concatenate([f.d for f in forms]).astype(int))
+    a = np.sort(np.concatenate([f.a for f in forms]).astype(int))
     q = np.concatenate([f.q for f in forms]).astype(int)
     width = forms[0].F.shape[1]  # nu + 1 (u = [y, S, C, 1], S and C where some part is forced)
-    pos_d = np.empty(n, dtype=int)
-    pos_d[np.sort(d)] = np.arange(d.size)
-    pos_a = np.empty(n, dtype=int)
-    pos_a[np.sort(a)] = np.arange(a.size)
+    pos = np.empty(n, dtype=int)  # a variable's row among the differential, or the slave, ones
+    pos[d] = np.arange(d.size)
+    pos[a] = np.arange(a.size)
 
-    def stack(which: str, pos: np.ndarray, rows_of) -> sp.csr_array:
-        r, c, v = [], [], []
-        for p in parts:
-            rr, cc, ii = getattr(p, which)
-            local = rows_of(p.form)
-            r.append(pos[local[rr]])
-            c.append(cc)
-            v.append(vals[ii])
-        size = sum(len(rows_of(f)) for f in forms)
-        return sp.csr_array((np.concatenate(v), (np.concatenate(r), np.concatenate(c))), shape=(size, width))
+    def stack(which: str, size: int) -> sp.csr_array:
+        trip = [getattr(p, which) for p in parts]
+        r = np.concatenate([t[0] for t in trip])
+        c = np.concatenate([t[1] for t in trip])
+        i = np.concatenate([t[2] for t in trip])
+        return sp.csr_array((vals[i], (pos[r], c)), shape=(size, width))
 
-    F = stack("F", pos_d, lambda f: f.d)
-    G = stack("G", pos_a, lambda f: f.a)
-    ds = np.sort(d)
-    nz = ds.size + nf + 1
+    F = stack("F", d.size)
+    nz = d.size + nf + 1
     # u from z: differential variables are z's first entries, S and C (if any) next, then 1.
-    ident_r = np.concatenate([ds, n + np.arange(nf), [width - 1]])
-    ident_c = np.concatenate([np.arange(ds.size), ds.size + np.arange(nf), [nz - 1]])
+    ident_r = np.concatenate([d, n + np.arange(nf), [width - 1]])
+    ident_c = np.concatenate([np.arange(d.size), d.size + np.arange(nf), [nz - 1]])
     rest = sp.csr_array((np.ones(ident_r.size), (ident_r, ident_c)), shape=(width, nz))
     Pu = rest
     if a.size:
-        as_ = np.sort(a)
-        Ga = G[:, as_].tocsc()
+        G = stack("G", a.size)
         try:
-            lu = spla.splu(Ga)
+            lu = spla.splu(G[:, a].tocsc())
         except RuntimeError:
             raise NotAffineError(
                 f"{label}: the algebraic equations are singular in the slave variables"
@@ -328,41 +337,25 @@ def assemble_sparse(
         if not np.all(np.isfinite(X)):
             raise NotAffineError(f"{label}: the algebraic equations are singular in the slave variables")
         X[np.abs(X) < 1e-300] = 0.0
-        Xs = sp.csr_array(X)
-        slave = sp.csr_array((np.ones(as_.size), (as_, np.arange(as_.size))), shape=(width, as_.size))
-        Pu = rest + slave @ Xs
+        slave = sp.csr_array((np.ones(a.size), (a, np.arange(a.size))), shape=(width, a.size))
+        Pu = rest + slave @ sp.csr_array(X)
     Md = sp.coo_array(F @ Pu)
     rows, cols, data = [Md.row], [Md.col], [Md.data]
     if omega is not None:
-        k = ds.size
+        k = d.size
         rows.append(np.array([k, k + 1]))  # S' = w C, C' = -w S
         cols.append(np.array([k + 1, k]))
         data.append(np.array([omega, -omega]))
     M = sp.csr_array((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(nz, nz))
     # guard slots in order: the parts' transitions, the constant 1 where a part leaves a slot unused
-    part_slots, slot_of = slots
-    wr, wc, wv = [], [], []
-    row = 0
-    for p_index, (p, k) in enumerate(zip(parts, key, strict=True)):
-        rr, cc, ii = p.W
-        used = len(slot_of[p_index][k])
-        for j in range(len(part_slots[p_index])):
-            if j < used:
-                sel = rr == j
-                wr.append(np.full(int(sel.sum()), row))
-                wc.append(cc[sel])
-                wv.append(vals[ii[sel]])
-            else:
-                wr.append(np.array([row]))
-                wc.append(np.array([width - 1]))
-                wv.append(np.array([vals[one]]))
-            row += 1
+    n_slots = part_slots[-1].stop if part_slots else 0
+    trip = [p.W for p in parts]
     Wu = sp.csr_array(
         (
-            np.concatenate(wv) if wv else np.zeros(0),
-            (np.concatenate(wr) if wr else np.zeros(0, int), np.concatenate(wc) if wc else np.zeros(0, int)),
+            vals[np.concatenate([t[2] for t in trip])],
+            (np.concatenate([t[0] for t in trip]), np.concatenate([t[1] for t in trip])),
         ),
-        shape=(row, width),
+        shape=(n_slots, width),
     )
     W = sp.csr_array(Wu @ Pu)
     Q = []
@@ -373,4 +366,4 @@ def assemble_sparse(
     order = np.argsort(q)
     Q = [Q[i] for i in order]
     P = sp.csr_array(Pu[:n])
-    return omega, ds, np.sort(a), np.sort(q), M, P, Q, W
+    return omega, d, a, np.sort(q), M, P, Q, W

@@ -131,7 +131,7 @@ class ExactModeSolver:
         self.h, T = _guard_series_rows(am, float(max_step))
         self._T = T
         self.flow = am.flow()
-        self._direction = [g.direction for g in am.cm.guards]
+        self._direction = [int(d) for d in am.cm.guard_directions]
         # Exclusion test on a grid: |p| at the nodes against the derivative bound.
         self._scales: dict[float, np.ndarray] = {}
         self.t = 0.0
@@ -426,7 +426,7 @@ class TaylorModeSolver(ExactModeSolver):
         norm = float(np.max(np.abs(am.M).sum(axis=1))) if nz else 0.0
         self.h = float(max_step) if norm == 0.0 else min(float(max_step), TAYLOR_THETA / norm)
         self.flow = _TaylorFlow(am, self.h)
-        self._direction = [g.direction for g in am.cm.guards]
+        self._direction = [int(d) for d in am.cm.guard_directions]
         self._scales: dict[float, np.ndarray] = {}
         self.t = 0.0
         self.z = np.zeros(nz)
@@ -448,7 +448,8 @@ class TaylorModeSolver(ExactModeSolver):
 
     def _polish(self, z0: np.ndarray, s: float, k: int, h: float) -> float:
         """Newton steps on the guard's polynomial (exact on the step) from its root ``s``."""
-        c = np.asarray(self.am.W[[k]] @ self.flow.prepare(z0).T).ravel()  # W_k c_j
+        cols, w = self.am.guard_row(k)
+        c = self.flow.prepare(z0)[:, cols] @ w  # W_k c_j
         powers = np.arange(c.size)
         dc = c[1:] * powers[1:]
         for _ in range(3):

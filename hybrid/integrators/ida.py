@@ -144,7 +144,6 @@ class ModeSolver:
         self.safe = np.zeros(ng)
         self.nfev_last = 0
         self.njev_last = 0
-        self._guard_fns = [g.fn for g in mode.guards]
 
         # The callbacks are the hot path of a run (about 2000 calls per forcing period): the
         # mode's generated functions are called directly, without the CompiledMode wrappers.
@@ -190,7 +189,7 @@ class ModeSolver:
                     out[~armed] = safe[~armed]
 
             eventsfn.terminal = [True] * ng
-            eventsfn.direction = [g.direction for g in mode.guards]
+            eventsfn.direction = [int(d) for d in mode.guard_directions]
             opts["eventsfn"] = eventsfn
             opts["num_events"] = ng
             self._events = eventsfn

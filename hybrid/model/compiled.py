@@ -166,6 +166,7 @@ class CompiledMode(ModeMethods):
                 )
             )
         self.guards: tuple[CompiledGuard, ...] = tuple(guards)
+        self.guard_directions = np.array([g.direction for g in guards], dtype=float)
         self._guards_fn = (
             compile_many([g.expr for g in guards], slots, f"guards_{mode.name}", namespace=self._ns)
             if guards

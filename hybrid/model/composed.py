@@ -23,6 +23,7 @@ alternative must be finite wherever the system's state may be.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -217,6 +218,31 @@ class ComposedForm:
             self.slot_of.append([[replace(s, slot=nslot + j) for j, s in enumerate(lst)] for lst in out])
             nslot += width
         self.n_slots = nslot
+        # per part and local mode: the directions of its slots (0 where unused) and slots by name
+        self.slot_dirs = [
+            [
+                np.array(
+                    [lst[j].direction if j < len(lst) else 0 for j in range(len(self.part_slots[part]))],
+                    dtype=float,
+                )
+                for lst in self.slot_of[part]
+            ]
+            for part in range(len(self.part_modes))
+        ]
+        self.slot_named = [
+            [{sl.name: sl.slot for sl in lst} for lst in self.slot_of[part]]
+            for part in range(len(self.part_modes))
+        ]
+        self.part_named = {
+            sl.name: part for part in range(len(self.part_modes)) for lst in self.slot_of[part] for sl in lst
+        }
+        self.slot_part = (
+            np.concatenate(
+                [np.full(len(self.part_slots[part]), part, dtype=int) for part in range(len(self.part_modes))]
+            )
+            if nslot
+            else np.zeros(0, dtype=int)
+        )
         slot_exprs: list[Expr] = []
         for part, modes in enumerate(self.part_modes):
             for j in range(len(self.part_slots[part])):
@@ -331,37 +357,23 @@ class ComposedMode(ModeMethods):
         self._ix_aa = np.ix_(self.alg_idx, self.alg_idx)
         rows_t = form.rows_t
         self._rows_t = lambda v: rows_t([*v, *ind])
-        # Guards: one per slot, the part's transition where its mode has one, else never firing.
-        guards_out = []
-        for part, local in enumerate(key):
-            lst = form.slot_of[part][local]
-            for j, slot in enumerate(form.part_slots[part]):
-                if j < len(lst):
-                    g = _compiled_guard(cs, form, lst[j])
-                    tkey = key[:part] + (lst[j].target_local,) + key[part + 1 :]
-                    guards_out.append(
-                        CompiledGuard(
-                            slot,
-                            g.transition,
-                            g.name,
-                            cs.intern(tkey),
-                            g.direction,
-                            g.expr,
-                            g.fn,
-                            g.grad,
-                            g.grad_t,
-                            g.reset,
-                            g.reset_expr,
-                        )
-                    )
-                else:
-                    guards_out.append(form.never[slot])
-        self.guards = tuple(guards_out)
+        # Guards: one per slot, the part's transition where its mode has one, else never firing
+        # (made when first read: a mode entered once reads few of them).
+        self.guards = _Guards(cs, form, key)
+        self.guard_directions = (
+            np.concatenate([form.slot_dirs[part][local] for part, local in enumerate(key)])
+            if form.n_slots
+            else np.zeros(0)
+        )
         self.outputs = form.outputs[key[0]]
         self._outputs_vec = form.outputs_vec[key[0]]
         halts = [form.halts[part][local] for part, local in enumerate(key)]
         self.halt = "; ".join(h for h in halts if h)
         self._lu = None  # the slave block's LU factorisation, where it is constant
+
+    def guard_slot(self, name: str) -> int | None:
+        """The index of the guard of the transition called ``name`` (None: the mode has none)."""
+        return self.guards.slot(name)
 
     # -- made on first use --------------------------------------------------------------------
     def _rows(self) -> tuple[dict, dict]:
@@ -530,6 +542,52 @@ class ComposedMode(ModeMethods):
         s, j = self.form.guard_grad_at
         np.add.at(out, s, vals * scale[j])
         return out
+
+
+class _Guards(Sequence):
+    """The guards of a composed mode by slot, each made on first use (its target mode interned
+    then)."""
+
+    __slots__ = ("_cs", "_form", "_key", "_made")
+
+    def __init__(self, cs, form: ComposedForm, key: tuple[int, ...]):
+        self._cs, self._form, self._key = cs, form, key
+        self._made: dict[int, CompiledGuard] = {}
+
+    def __len__(self) -> int:
+        return self._form.n_slots
+
+    def __getitem__(self, slot: int) -> CompiledGuard:
+        if not isinstance(slot, (int, np.integer)):
+            raise TypeError("guards are read one slot at a time")
+        slot = int(slot)
+        if slot < 0:
+            slot += self._form.n_slots
+        g = self._made.get(slot)
+        if g is None:
+            g = self._made[slot] = self._make(slot)
+        return g
+
+    def __iter__(self):
+        return (self[s] for s in range(len(self)))
+
+    def _make(self, slot: int) -> CompiledGuard:
+        form, key, cs = self._form, self._key, self._cs
+        part = int(form.slot_part[slot])
+        j = slot - form.part_slots[part].start
+        lst = form.slot_of[part][key[part]]
+        if j >= len(lst):
+            return form.never[slot]
+        g = _compiled_guard(cs, form, lst[j])
+        tkey = key[:part] + (lst[j].target_local,) + key[part + 1 :]
+        return replace(g, index=slot, target=cs.intern(tkey))
+
+    def slot(self, name: str) -> int | None:
+        """The slot of the transition called ``name`` in this mode (None: no such transition)."""
+        part = self._form.part_named.get(name)
+        if part is None:
+            return None
+        return self._form.slot_named[part][self._key[part]].get(name)
 
 
 #: Up to this many slave variables, a mode's slave block is factorised as a dense matrix.

@@ -152,6 +152,13 @@ class ModeMethods:
             return np.zeros(0)
         return np.array(self._guards_fn([t, *np.asarray(y, dtype=float).tolist()]))
 
+    def guard_slot(self, name: str) -> int | None:
+        """The index of the guard of the transition called ``name`` (None: the mode has none)."""
+        for g in self.guards:
+            if g.name == name:
+                return g.index
+        return None
+
     def guard_gradient(self, k: int, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
         """``(dh/dy, dh/dt)`` of guard ``k`` at ``(t, y)``."""
         v = [t, *np.asarray(y, dtype=float).tolist()]

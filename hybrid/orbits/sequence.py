@@ -256,7 +256,7 @@ def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
             return None
         src, dst = cs.mode_id(ev.source), cs.mode_id(ev.target)
         cm = cs.modes[src]
-        k = next((g.index for g in cm.guards if g.name == ev.guard), None)
+        k = cm.guard_slot(ev.guard)
         if k is None or cm.guards[k].target != dst:
             return None
         reset = cm.guards[k].reset_expr
