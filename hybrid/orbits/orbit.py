@@ -247,7 +247,6 @@ class _Extrema:
     def __init__(self, cs: CompiledSystem, tr: Trajectory, affine: list | None = None):
         self.cs, self.tr = cs, tr
         self.affine = affine  # the modes' exact flows (the exact integrator): exact derivatives
-        self.mid = {name: k for k, name in enumerate(cs.mode_index)}
         self._jets: dict[int, tuple] = {}
         self._polys: dict[int, np.ndarray] = {}
         self._outputs = tr.outputs
