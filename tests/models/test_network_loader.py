@@ -27,6 +27,9 @@ NETWORKS = [
     "absorber_offset",
     "isolator_base",
     "friction_contact",
+    "bk_chain",
+    "iwan",
+    "bladed_disk",
 ]
 BASE = tomllib.loads((MODEL_DIR / "absorber_network.toml").read_text())
 
