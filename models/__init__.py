@@ -1,4 +1,5 @@
-"""Built-in models: the paper's two sequential friction-spring dampers and a Coulomb oscillator.
+"""Built-in models: the paper's two sequential friction-spring dampers, a Coulomb oscillator, belts,
+and three friction networks of many contacts (a Burridge-Knopoff chain, an Iwan joint, a bladed disk).
 
 Each model is a data file (``*.toml`` beside this module) read by
 :func:`hybrid.load_system`; the functions below return them, cached.
@@ -25,6 +26,9 @@ __all__ = [
     "belt_stribeck",
     "belt_damper",
     "belt_sign",
+    "bk_chain",
+    "iwan",
+    "bladed_disk",
     "BUILTIN",
 ]
 
@@ -75,6 +79,24 @@ def belt_damper() -> HybridSystem:
     return _load("belt_damper")
 
 
+def bk_chain() -> HybridSystem:
+    """Burridge-Knopoff chain of 20 blocks on friction contacts, all forced (network file, one cell
+    repeated); preset ``standard`` (the chain of the Siconos benchmark)."""
+    return _load("bk_chain")
+
+
+def iwan() -> HybridSystem:
+    """Iwan joint: a mass on 50 Jenkins elements with slip forces spread uniformly (network file, one
+    cell repeated); preset ``standard``."""
+    return _load("iwan")
+
+
+def bladed_disk() -> HybridSystem:
+    """Bladed disk: a ring of 24 blades with friction dampers between neighbours, forced by a
+    travelling wave (network file, one cell repeated); presets ``tuned``, ``mistuned``."""
+    return _load("bladed_disk")
+
+
 #: Built-in model factories by name.
 BUILTIN = {
     "absorber": absorber,
@@ -85,4 +107,7 @@ BUILTIN = {
     "belt": belt,
     "belt_stribeck": belt_stribeck,
     "belt_damper": belt_damper,
+    "bk_chain": bk_chain,
+    "iwan": iwan,
+    "bladed_disk": bladed_disk,
 }

@@ -45,20 +45,42 @@ def table(header: Sequence[str], rows: list[Sequence[str]]) -> list[str]:
 
 
 def show_text(system: HybridSystem, description: str | None = None) -> str:
-    """A model as text: its network (if given), then its modes and its transitions as tables."""
+    """A model as text: its network (if given), then its modes and its transitions as tables; a
+    system with components, its own modes and then each component's local modes and transitions."""
     lines = [description, ""] if description else []
     lines.append(f"model `{system.name}`" + (f": {system.title}" if system.title else ""))
-    lines.append(
-        f"  {len(system.variables)} variables, {len(system.modes)} modes, {len(system.transitions)} transitions, "
-        f"initial mode {system.initial_mode or system.mode_names[0]}"
-    )
+    if system.components:
+        n_local = sum(len(c.modes) for c in system.components)
+        n_trans = len(system.transitions) + sum(len(c.transitions) for c in system.components)
+        lines.append(
+            f"  {len(system.variables)} variables, {len(system.modes)} own mode(s), {len(system.components)} "
+            f"components ({n_local} local modes, composed on demand), {n_trans} transitions, initial mode "
+            f"{system.default_mode or system.mode_names[0]}"
+        )
+    else:
+        lines.append(
+            f"  {len(system.variables)} variables, {len(system.modes)} modes, {len(system.transitions)} "
+            f"transitions, initial mode {system.initial_mode or system.mode_names[0]}"
+        )
+    owned = {n for c in system.components for m in c.modes[:1] for n in (*m.derivatives, *m.algebraic)}
     lines.append("")
-    lines.append("modes:")
+    lines.append("modes:" if not system.components else "own modes (the variables no component owns):")
     rows = []
     for m in system.modes:
-        differential = [v for v in system.variable_names if v not in m.algebraic]
+        differential = [v for v in system.variable_names if v not in m.algebraic and v not in owned]
         rows.append((m.name, ", ".join(differential), ", ".join(m.algebraic) or "-"))
     lines += table(("mode", "differential", "slave (algebraic)"), rows)
+    if system.components:
+        lines.append("")
+        lines.append(
+            "components (a mode of the system is its own mode and one local mode per component, joined by |):"
+        )
+        rows = [
+            (c.name, m.name, ", ".join(m.derivatives) or "-", ", ".join(m.algebraic) or "-")
+            for c in system.components
+            for m in c.modes
+        ]
+        lines += table(("component", "local mode", "differential", "slave (algebraic)"), rows)
     found = surfaces(system)
     if found:
         lines.append("")
@@ -71,16 +93,19 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
     lines.append("")
     lines.append("transitions:")
     arrow = {1: "rising", -1: "falling", 0: "either"}
+    named = [("", t) for t in system.transitions] + [
+        (f"{c.name}.", t) for c in system.components for t in c.transitions
+    ]
     rows = [
         (
-            t.name,
+            prefix + t.name,
             t.source,
             t.target,
             arrow[t.direction],
             t.guard,
             ", ".join(f"{k} = {v}" for k, v in t.reset.items()) or "-",
         )
-        for t in system.transitions
+        for prefix, t in named
     ]
     lines += table(("name", "from", "to", "crossing", "guard", "reset"), rows)
     return "\n".join(lines)

@@ -160,9 +160,10 @@ class ComposedForm:
         res_slots.update({f"{_YP}{i}": n + 1 + i for i in range(n)})
         res_slots.update({s: 2 * n + 1 + k for k, s in enumerate(ind_syms)})
         slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
+        #: Slots of functions of ``[t, y]`` alone (a mode's resets and their derivatives).
+        self.state_slots = dict(slots)
         slots.update({s: n + 1 + k for k, s in enumerate(ind_syms)})
         self._slots = slots
-        self.plain_slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
         rows: list[Expr] = []
         grows: list[Expr] = []  # the same without y' (dF/dy, dF/dt)
         for i in range(n):
@@ -333,7 +334,7 @@ class ComposedMode(ModeMethods):
         self._ind = ind
         self._runtime = form._runtime
         self._ns = form._ns
-        self._slots = form.plain_slots
+        self._slots = form.state_slots  # as CompiledMode's: [t, y] (e.g. for the resets' Jacobians)
         self._params = cs.params
         owner = form.owner
         nfree = len(cs.free)

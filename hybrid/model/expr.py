@@ -559,36 +559,57 @@ def diff(e: Expr, name: str) -> Expr:
     """Exact partial derivative of an expression with respect to symbol ``name``."""
     if name not in e.free:
         return ZERO
+    # Only the nodes that depend on `name` are visited (the others' derivative is 0): the cost is
+    # the size of that part, not of the whole DAG (a sum of N terms is differentiated in each of
+    # its N variables in O(N) in all, not O(N^2)).
     d: dict[Expr, Expr] = {}
-    for node in postorder([e]):
+    for node in _postorder_depending(e, name):
         op = node.op
-        if name not in node.free:
-            out = ZERO
-        elif op == "sym":
+        if op == "sym":
             out = ONE
         elif op == "neg":
-            out = neg(d[node.args[0]])
+            out = neg(d.get(node.args[0], ZERO))
         elif op == "add":
-            out = add(d[node.args[0]], d[node.args[1]])
+            out = add(d.get(node.args[0], ZERO), d.get(node.args[1], ZERO))
         elif op == "sub":
-            out = sub(d[node.args[0]], d[node.args[1]])
+            out = sub(d.get(node.args[0], ZERO), d.get(node.args[1], ZERO))
         elif op == "mul":
             a, b = node.args
-            out = add(mul(d[a], b), mul(a, d[b]))
+            out = add(mul(d.get(a, ZERO), b), mul(a, d.get(b, ZERO)))
         elif op == "div":
             a, b = node.args
-            out = sub(div(d[a], b), div(mul(a, d[b]), power(b, num(2.0))))
+            out = sub(div(d.get(a, ZERO), b), div(mul(a, d.get(b, ZERO)), power(b, num(2.0))))
         elif op == "pow":
             a, b = node.args
-            da, db = d[a], d[b]
+            da, db = d.get(a, ZERO), d.get(b, ZERO)
             if _is_num(db, 0.0):
                 out = mul(mul(b, power(a, sub(b, ONE))), da)
             else:
                 out = mul(node, add(mul(db, call("log", a)), div(mul(b, da), a)))
         elif op == "call":
             fname, a = node.args
-            out = mul(_dfunc(fname, a), d[a])
+            out = mul(_dfunc(fname, a), d.get(a, ZERO))
         else:  # pragma: no cover
             raise AssertionError(op)
         d[node] = out
     return d[e]
+
+
+def _postorder_depending(root: Expr, name: str) -> list[Expr]:
+    """The distinct nodes under ``root`` whose value depends on symbol ``name``, children first."""
+    seen: set[Expr] = set()
+    out: list[Expr] = []
+    stack: list[tuple[Expr, bool]] = [(root, False)]
+    while stack:
+        node, expanded = stack.pop()
+        if expanded:
+            out.append(node)
+            continue
+        if node in seen:
+            continue
+        seen.add(node)
+        stack.append((node, True))
+        for c in reversed(children(node)):
+            if c not in seen and name in c.free:
+                stack.append((c, False))
+    return out

@@ -54,7 +54,9 @@ def derived_plot_hints(system: HybridSystem) -> dict[str, object]:
       rate, that some mode redefines; else the first one a guard uses;
       absent if none (the figure then has no panels for it).
     - ``shade_modes``: the modes in which the rate is held at 0 (the output
-      defined as 0, or the variable's derivative 0).
+      defined as 0, or the variable's derivative 0). A model's own ``[plot]``
+      may also give patterns with ``*`` (``motion|stick|*``: every mode of a
+      system with components whose first component sticks).
 
     Parameters
     ----------

@@ -63,7 +63,7 @@ __all__ = ["HybridSystem"]
 
 #: Size limits of a model (a model file is untrusted input: every limit has a clear error).
 MAX_VARIABLES = 20_000
-MAX_PARAMETERS = 1000
+MAX_PARAMETERS = 20_000
 MAX_MODES = 1000
 MAX_TRANSITIONS = 10_000
 #: Components (e.g. contacts) of a system, and local modes and transitions of all of them together.
@@ -563,7 +563,7 @@ class HybridSystem:
                     except ValueError as exc:
                         raise ModelError(f"{pre}: preset `{pname}`: {exc}") from None
             for k in values:
-                if k not in pnames:
+                if k not in pmap:
                     raise ModelError(
                         f"{pre}: preset `{pname}` sets unknown parameter `{k}`; parameters: {', '.join(pnames)}"
                     )
@@ -575,6 +575,7 @@ class HybridSystem:
         """Names, local modes and owned variables of the components; ``{variable: component}``."""
         owned: dict[str, str] = {}
         seen: set[str] = set()
+        vset = set(vnames)
         for c in self.components:
             if not isinstance(c.name, str) or not _NAME.fullmatch(c.name):
                 raise ModelError(
@@ -619,7 +620,7 @@ class HybridSystem:
                         f"{where}: mode `{m.name}`: `{sorted(both)[0]}` has both a derivative and an algebraic equation"
                     )
             for n in sorted(ours):
-                if n not in vnames:
+                if n not in vset:
                     raise ModelError(f"{where} gives an equation for unknown variable `{n}`")
                 if n in owned:
                     raise ModelError(f"{where}: variable `{n}` is already owned by component `{owned[n]}`")
@@ -644,21 +645,30 @@ class HybridSystem:
     def _parse_components(self, pre, base_known, parsed_defs, vnames, pnames) -> list[dict]:
         """Each component's local modes and transitions, parsed and expanded (as the own modes')."""
         out = []
+        # Linear in the number of components: what every local mode without definitions of its own
+        # shares (the names it may use, the definitions it expands) is made once, not copied.
+        shared_known = base_known | set(self.definitions)
+        shared_expand = _Expander(parsed_defs)
+        vset, pset = set(vnames), set(pnames)
+        vindex = {n: i for i, n in enumerate(vnames)}
         for c in self.components:
             where = f"{pre}: component `{c.name}`"
             modes: dict[str, dict] = {}
             for m in c.modes:
                 for n in m.definitions:
-                    if n in vnames or n in pnames or not _NAME.fullmatch(n) or n in _RESERVED:
+                    if n in vset or n in pset or not _NAME.fullmatch(n) or n in _RESERVED:
                         raise ModelError(f"{where}: mode `{m.name}`: invalid definition name {_shown(n)}")
-                known = base_known | set(self.definitions) | set(m.definitions)
-                mdefs = dict(parsed_defs)
-                mdefs.update(
-                    self._parse_definitions(
-                        m.definitions, known, parsed_defs, f"{where}: mode `{m.name}` definition"
+                if m.definitions:
+                    known = shared_known | set(m.definitions)
+                    mdefs = dict(parsed_defs)
+                    mdefs.update(
+                        self._parse_definitions(
+                            m.definitions, known, parsed_defs, f"{where}: mode `{m.name}` definition"
+                        )
                     )
-                )
-                expand = _Expander(mdefs)
+                    expand = _Expander(mdefs)
+                else:
+                    known, mdefs, expand = shared_known, parsed_defs, shared_expand
                 modes[m.name] = {
                     "derivatives": {
                         n: expand(parse(e, known, f"{where}: mode `{m.name}`: derivative of `{n}`"))
@@ -669,6 +679,7 @@ class HybridSystem:
                         for n, e in m.algebraic.items()
                     },
                     "defs": mdefs,
+                    "known": known,
                     "expand": expand,
                     "halt": m.halt,
                 }
@@ -681,22 +692,22 @@ class HybridSystem:
                     )
                 used[tr.source].add(tr.name)
                 md = modes[tr.source]
-                known = base_known | set(md["defs"])
+                known = md["known"]
                 g = md["expand"](parse(tr.guard, known, f"{where}: guard of transition `{tr.name}`"))
-                if isinstance(tr.guard, str) and not (free_symbols(g) - set(pnames)):
+                if isinstance(tr.guard, str) and not (free_symbols(g) - pset):
                     raise ModelError(
                         f"{where}: guard of transition `{tr.name}` ({tr.guard!r}) depends on no variable and "
                         "not on t: it can never cross zero"
                     )
                 resets = {}
                 for n, r in tr.reset.items():
-                    if n not in vnames:
+                    if n not in vset:
                         raise ModelError(f"{where}: transition `{tr.name}` resets unknown variable `{n}`")
                     resets[n] = md["expand"](
                         parse(r, known, f"{where}: reset of `{n}` in transition `{tr.name}`")
                     )
                 trans.append({"guard": g, "reset": resets})
-            owned = sorted(set(c.modes[0].derivatives) | set(c.modes[0].algebraic), key=vnames.index)
+            owned = sorted(set(c.modes[0].derivatives) | set(c.modes[0].algebraic), key=vindex.__getitem__)
             out.append({"modes": modes, "transitions": trans, "owned": tuple(owned)})
         return out
 
