@@ -640,6 +640,12 @@ class HybridSystem:
     def _parse_components(self, pre, base_known, parsed_defs, vnames, pnames) -> list[dict]:
         """Each component's local modes and transitions, parsed and expanded (as the own modes')."""
         out = []
+        # A local mode without definitions of its own shares these (copying them per local mode
+        # made building quadratic in the number of components).
+        shared_known = base_known | set(self.definitions)
+        shared_expand = _Expander(parsed_defs)
+        vindex = {n: k for k, n in enumerate(vnames)}
+        pset = set(pnames)
         for c in self.components:
             where = f"{pre}: component `{c.name}`"
             modes: dict[str, dict] = {}
@@ -647,14 +653,17 @@ class HybridSystem:
                 for n in m.definitions:
                     if n in vnames or n in pnames or not _NAME.fullmatch(n) or n in _RESERVED:
                         raise ModelError(f"{where}: mode `{m.name}`: invalid definition name {_shown(n)}")
-                known = base_known | set(self.definitions) | set(m.definitions)
-                mdefs = dict(parsed_defs)
-                mdefs.update(
-                    self._parse_definitions(
-                        m.definitions, known, parsed_defs, f"{where}: mode `{m.name}` definition"
+                if m.definitions:
+                    known = shared_known | set(m.definitions)
+                    mdefs = dict(parsed_defs)
+                    mdefs.update(
+                        self._parse_definitions(
+                            m.definitions, known, parsed_defs, f"{where}: mode `{m.name}` definition"
+                        )
                     )
-                )
-                expand = _Expander(mdefs)
+                    expand = _Expander(mdefs)
+                else:
+                    known, mdefs, expand = shared_known, parsed_defs, shared_expand
                 modes[m.name] = {
                     "derivatives": {
                         n: expand(parse(e, known, f"{where}: mode `{m.name}`: derivative of `{n}`"))
@@ -677,22 +686,22 @@ class HybridSystem:
                     )
                 used[tr.source].add(tr.name)
                 md = modes[tr.source]
-                known = base_known | set(md["defs"])
+                known = shared_known if md["defs"] is parsed_defs else base_known | set(md["defs"])
                 g = md["expand"](parse(tr.guard, known, f"{where}: guard of transition `{tr.name}`"))
-                if isinstance(tr.guard, str) and not (free_symbols(g) - set(pnames)):
+                if isinstance(tr.guard, str) and not (free_symbols(g) - pset):
                     raise ModelError(
                         f"{where}: guard of transition `{tr.name}` ({tr.guard!r}) depends on no variable and "
                         "not on t: it can never cross zero"
                     )
                 resets = {}
                 for n, r in tr.reset.items():
-                    if n not in vnames:
+                    if n not in vindex:
                         raise ModelError(f"{where}: transition `{tr.name}` resets unknown variable `{n}`")
                     resets[n] = md["expand"](
                         parse(r, known, f"{where}: reset of `{n}` in transition `{tr.name}`")
                     )
                 trans.append({"guard": g, "reset": resets})
-            owned = sorted(set(c.modes[0].derivatives) | set(c.modes[0].algebraic), key=vnames.index)
+            owned = sorted(set(c.modes[0].derivatives) | set(c.modes[0].algebraic), key=vindex.__getitem__)
             out.append({"modes": modes, "transitions": trans, "owned": tuple(owned)})
         return out
 
