@@ -444,6 +444,11 @@ class Run:
         noise = {k: self.noise(cm, k, t, y) for k in disarmed}
         solver.start(t, y, yp)
         t_start = t
+        # Samples at the start or within rounding after it (a switch that lands on a sample time)
+        # are the start state: IDA cannot be asked for a time that close (flag -60).
+        self.emit_samples_upto(
+            t + 4.0 * np.finfo(float).eps * max(1.0, abs(t)), lambda s: (y, mode), inclusive=True
+        )
         where = f" in mode `{cm.name}`"
         # A solver with exact dense output (the exact integrator) is not stepped to each sample:
         # the samples of a step are taken from its flow afterwards, all at once.

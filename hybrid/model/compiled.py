@@ -275,6 +275,8 @@ class CompiledSystem:
         if self.form is None:
             for m in self.modes:
                 m._params = new
+        else:
+            self.form.generation += 1  # factorisations made with the old values are stale
         self.period = self.system.period_value(new)
         self.derived.clear()
 

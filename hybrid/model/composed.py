@@ -293,8 +293,15 @@ class ComposedForm:
         self.zeros.flags.writeable = False
         # Is the block of dF/dy in the slave variables independent of the state (linear slave
         # equations, as a friction contact's)? Then each mode inverts it once.
+        # Only the entries between rows that are slave in some mode matter (the block is theirs).
+        # Parameters read at run time change only through set_runtime, which bumps `generation`:
+        # a mode's factorisation is kept for one generation.
         state = set(names) | {"t"}
-        self.constant_slave_block = not any(free_symbols(d) & state for _, _, d in self.jac_terms)
+        self.generation = 0
+        may_be_slave = {i for i in range(n) if not all(is_d for is_d, _ in self.alt[i])}
+        self.constant_slave_block = not any(
+            free_symbols(d) & state for i, j, d in self.jac_terms if i in may_be_slave and j in may_be_slave
+        )
         self.halts = [[md.get("halt", "") for md in modes] for modes in self.part_modes]
         own_halts = [m.halt for m in system.modes]
         self.halts[0] = own_halts
@@ -371,6 +378,7 @@ class ComposedMode(ModeMethods):
         halts = [form.halts[part][local] for part, local in enumerate(key)]
         self.halt = "; ".join(h for h in halts if h)
         self._lu = None  # the slave block's LU factorisation, where it is constant
+        self._lu_generation = -1
 
     def guard_slot(self, name: str) -> int | None:
         """The index of the guard of the transition called ``name`` (None: the mode has none)."""
@@ -452,7 +460,7 @@ class ComposedMode(ModeMethods):
     def _slave_lu(self, t: float, y: np.ndarray, vals: np.ndarray | None = None):
         """A factorisation of the slave block of ``dF/dy`` at ``(t, y)`` (kept where it is
         constant): LU of a dense block up to :data:`DENSE_SLAVES` slave variables, sparse LU above."""
-        if self._lu is not None:
+        if self._lu is not None and self._lu_generation == self.form.generation:
             return self._lu
         if vals is None:
             vals = self._jac_vals(t, y)
@@ -474,7 +482,7 @@ class ComposedMode(ModeMethods):
                 f"mode `{self.name}`: the algebraic equations are singular in the slave variables at t={t!r}"
             )
         if self.form.constant_slave_block:
-            self._lu = lu
+            self._lu, self._lu_generation = lu, self.form.generation
         return lu
 
     def projection(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -362,7 +362,7 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
         exceeded (checked before :func:`ast.parse` runs).
     """
     if isinstance(text, Expr):  # built by a front end from parsed trees (e.g. hybrid.model.filippov)
-        unknown = sorted(text.free - set(known) - CONSTANTS.keys())
+        unknown = sorted(n for n in text.free if n not in known and n not in CONSTANTS)
         if unknown:
             raise ExpressionError(f"{where}: unknown name `{unknown[0]}` in {to_string(text, 80)!r}")
         return text

@@ -911,11 +911,16 @@ class HybridSystem:
             raise InputError(f"model `{self.name}` has no mode `{name}`; modes: {', '.join(self.mode_names)}")
         key = self.mode_key(name)
         parts = [self.modes[key[0]], *(c.modes[k] for c, k in zip(self.components, key[1:], strict=True))]
+        halts = [m.halt for m in parts if m.halt]
+        halt = "; ".join(halts)
+        if len(halt) > 4 * MAX_TEXT:  # many parts halt: the first messages, and how many
+            tail = f" ... ({len(halts)} parts halt)"
+            halt = halt[: 4 * MAX_TEXT - len(tail)] + tail
         return Mode(
             name,
             derivatives={n: e for m in parts for n, e in m.derivatives.items()},
             algebraic={n: e for m in parts for n, e in m.algebraic.items()},
-            halt="; ".join(m.halt for m in parts if m.halt),
+            halt=halt,
         )
 
     def algebraic_variables(self, mode: str) -> tuple[str, ...]:
