@@ -285,6 +285,12 @@ class _Derivation:
         return {self.net.masses[x][1]: f"({num})/({den})" for x in ends}
 
 
+def _offset(e: Element) -> str:
+    """The relative displacement across element ``e`` (its b end minus its a end; the ground at 0)."""
+    a_pos, b_pos = (p if p != GROUND else "0" for p in (e.a, e.b))
+    return b_pos if a_pos == "0" else (f"-{a_pos}" if b_pos == "0" else f"{b_pos} - {a_pos}")
+
+
 def network_system(net: Network) -> HybridSystem:
     """The hybrid system of a network: one own mode and one component per friction element.
 
@@ -415,10 +421,12 @@ def network_system(net: Network) -> HybridSystem:
         first = friction[0]
         shade = f"{OWN_MODE}|stick" + ("|*" if len(friction) > 1 else "")
         plot |= {"force": f"f_{first.name}", "velocity": f"w_{first.name}", "shade_modes": [shade]}
-        # the stuck offset of the first element (the ground counted at 0) selects a member of a
-        # neutral family of periodic orbits (as the hand-written files' gauges do)
-        a_pos, b_pos = (p if p != GROUND else "0" for p in (first.a, first.b))
-        orbit = {"gauge": b_pos if a_pos == "0" else (f"-{a_pos}" if b_pos == "0" else f"{b_pos} - {a_pos}")}
+        # the stuck offsets of the elements (the ground counted at 0) select a member of a neutral
+        # family of periodic orbits (as the hand-written files' gauges do); where several elements
+        # stick at once the family has several dimensions and the orbit solver holds the offsets
+        # that fix it best (hybrid.orbits.gauge)
+        offsets = list(dict.fromkeys(_offset(e) for e in friction))
+        orbit = {"gauge": offsets[0] if len(offsets) == 1 else offsets}
     if net.plot is not None:
         plot = dict(net.plot)
     if net.orbit is not None:

@@ -44,20 +44,32 @@ def table(header: Sequence[str], rows: list[Sequence[str]]) -> list[str]:
     return lines
 
 
+def _short(name: str, width: int = 200) -> str:
+    """A mode name cut to ``width`` characters (a system of many components has long ones)."""
+    return name if len(name) <= width else name[: width - 3] + "..."
+
+
 def show_text(system: HybridSystem, description: str | None = None) -> str:
-    """A model as text: its network (if given), then its modes, its components (if any) and its
-    transitions as tables."""
+    """A model as text: its network (if given), then its modes and its transitions as tables; a
+    system with components, its own modes and then each component's local modes and transitions."""
     lines = [description, ""] if description else []
     lines.append(f"model `{system.name}`" + (f": {system.title}" if system.title else ""))
-    counts = f"  {len(system.variables)} variables, {len(system.modes)} modes, {len(system.transitions)} transitions, "
     if system.components:
         n_local = sum(len(c.modes) for c in system.components)
-        counts += f"{len(system.components)} components ({n_local} local modes), "
-    initial = system.default_mode or system.mode_names[0]
-    lines.append(counts + f"initial mode {initial if len(initial) <= 200 else initial[:197] + '...'}")
+        n_trans = len(system.transitions) + sum(len(c.transitions) for c in system.components)
+        lines.append(
+            f"  {len(system.variables)} variables, {len(system.modes)} own mode(s), {len(system.components)} "
+            f"components ({n_local} local modes, composed on demand), {n_trans} transitions, initial mode "
+            f"{_short(system.default_mode or system.mode_names[0])}"
+        )
+    else:
+        lines.append(
+            f"  {len(system.variables)} variables, {len(system.modes)} modes, {len(system.transitions)} "
+            f"transitions, initial mode {system.initial_mode or system.mode_names[0]}"
+        )
+    owned = {n for c in system.components for m in c.modes[:1] for n in (*m.derivatives, *m.algebraic)}
     lines.append("")
-    lines.append("modes:")
-    owned = {v for c in system.components for m in c.modes[:1] for v in [*m.derivatives, *m.algebraic]}
+    lines.append("modes:" if not system.components else "own modes (the variables no component owns):")
     rows = []
     for m in system.modes:
         differential = [v for v in system.variable_names if v not in m.algebraic and v not in owned]
@@ -66,50 +78,31 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
     if system.components:
         lines.append("")
         lines.append(
-            "components (a mode of the model is its own mode and one local mode of each, joined by |):"
+            "components (a mode of the system is its own mode and one local mode per component, joined by |):"
         )
-        rows = []
-        for c in system.components:
-            first = c.modes[0]
-            local = [
-                m.name
-                + (f" [{', '.join(v + chr(39) for v in m.derivatives)}]" if m.derivatives else "")
-                + (" (halt)" if m.halt else "")
-                for m in c.modes
-            ]
-            rows.append(
-                (
-                    c.name,
-                    ", ".join([*first.derivatives, *first.algebraic]),
-                    c.initial_mode or first.name,
-                    ", ".join(local),
-                )
-            )
-        lines += table(
-            ("component", "owns", "initial", "local modes ([y'] where it gives y a derivative)"), rows
-        )
+        rows = [
+            (c.name, m.name, ", ".join(m.derivatives) or "-", ", ".join(m.algebraic) or "-")
+            for c in system.components
+            for m in c.modes
+        ]
+        lines += table(("component", "local mode", "differential", "slave (algebraic)"), rows)
     found = surfaces(system)
     if found:
         lines.append("")
         lines.append("discontinuity surfaces h = 0 of sign(h) (Filippov's convention, docs/filippov.md):")
         rows = [
-            (
-                s.h,
-                s.mode,
-                s.coefficient,
-                "sliding" if s.slides else "crossing only",
-                s.component,
-                ", ".join(s.modes),
-            )
+            (s.h, s.mode, s.coefficient, "sliding" if s.slides else "crossing only", ", ".join(s.modes))
             for s in found
         ]
-        lines += table(("h", "in mode", "sign(h) is", "on h = 0", "component", "local modes"), rows)
+        lines += table(("h", "in mode", "sign(h) is", "on h = 0", "derived modes"), rows)
     lines.append("")
     lines.append("transitions:")
     arrow = {1: "rising", -1: "falling", 0: "either"}
-
-    def row(t, prefix: str = "") -> tuple:
-        return (
+    named = [("", t) for t in system.transitions] + [
+        (f"{c.name}.", t) for c in system.components for t in c.transitions
+    ]
+    rows = [
+        (
             prefix + t.name,
             t.source,
             t.target,
@@ -117,9 +110,8 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
             t.guard,
             ", ".join(f"{k} = {v}" for k, v in t.reset.items()) or "-",
         )
-
-    rows = [row(t) for t in system.transitions]
-    rows += [row(t, f"{c.name}.") for c in system.components for t in c.transitions]
+        for prefix, t in named
+    ]
     lines += table(("name", "from", "to", "crossing", "guard", "reset"), rows)
     return "\n".join(lines)
 

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..core.errors import AlgebraicSolveError
+from ..core.errors import AlgebraicSolveError, InputTypeError
 from .codegen import compile_many
 from .expr import ZERO, Expr, add, diff, free_symbols, mul, num, sub, substitute, sym
 from .guard import CompiledGuard
@@ -568,7 +568,7 @@ class _Guards(Sequence):
 
     def __getitem__(self, slot: int) -> CompiledGuard:
         if not isinstance(slot, (int, np.integer)):
-            raise TypeError("guards are read one slot at a time")
+            raise InputTypeError("guards are read one slot at a time")
         slot = int(slot)
         if slot < 0:
             slot += self._form.n_slots

@@ -65,10 +65,18 @@ def _settled(tr, rename=lambda m: m) -> list[tuple[float, str]]:
     return [(t, rename(m)) for t, m in out]
 
 
-def _compare(ref, new, names, exact_bits: bool, tol: float) -> None:
+def _compare(ref, new, names, exact_bits: bool, tol: float, same_steps: bool = True) -> None:
     """The component run ``new`` against the expanded run ``ref``: same samples, modes, settled
-    switches; states equal (``exact_bits``) or within ``tol``."""
+    switches; states equal (``exact_bits``) or within ``tol``. With ``same_steps=False`` (IDA,
+    whose step sizes follow the last bits of the residual: the two forms round differently) the
+    same settled switches within ``tol`` and the same final state within ``tol``."""
     assert ref.status == new.status == Status.COMPLETED
+    if not same_steps:
+        sa, sb = _settled(ref), _settled(new, _expanded_name)
+        assert [m for _, m in sa] == [m for _, m in sb]
+        assert max(abs(a - b) for (a, _), (b, _) in zip(sa, sb, strict=True)) <= tol
+        assert max(abs(ref.final(n) - new.final(n)) for n in names) <= tol
+        return
     assert ref.t.shape == new.t.shape
     assert np.max(np.abs(ref.t - new.t)) <= (0.0 if exact_bits else tol)
     assert [str(m) for m in ref.mode] == [_expanded_name(str(m)) for m in new.mode]
@@ -155,7 +163,10 @@ def test_two_surfaces_equal_the_expanded_form(options, k2, R2, v20, both_slide):
     x0 = {"x1": 0.0, "v1": 0.0, "x2": 0.0, "v2": v20}
     a = simulate(ref, p, span, x0, options=options)
     b = simulate(new, p, span, x0, options=options)
-    _compare(a, b, ("x1", "v1", "x2", "v2", "sign_1", "sign_2"), False, 1e-13)
+    if options is EXACT:
+        _compare(a, b, ("x1", "v1", "x2", "v2", "sign_1", "sign_2"), False, 1e-13)
+    else:  # measured: switch times 1.4e-11 apart, final states 2.2e-13 (rtol 1e-10)
+        _compare(a, b, ("x1", "v1", "x2", "v2", "sign_1", "sign_2"), False, 1e-9, same_steps=False)
     assert (sum(str(m) == "m|slide|slide" for m in b.mode) > 0) == both_slide
     # one surface reached while sliding on the other (crossed or joined)
     meet = [e for e in b.events if e.guard.endswith(".reach") and "slide" in e.source.split("|")]
