@@ -202,6 +202,18 @@ class Run:
         except AlgebraicSolveError as exc:
             raise _Stop(Status.ALGEBRAIC_FAILED, str(exc)) from None
 
+    def _independent(self, name: str, fired: list[str], after_switch: bool) -> bool:
+        """Whether the transition ``name``, due at the instant of the switches ``fired`` (and of
+        the logged switch that led here, if ``after_switch``), belongs to a component none of
+        them belongs to (a system without components: never)."""
+        if not self.cs.system.composed:
+            return False
+        before = list(fired)
+        if after_switch and self.events:
+            before.append(self.events[-1].guard)
+        part = name.split(".", 1)[0] if "." in name else ""
+        return all((f.split(".", 1)[0] if "." in f else "") != part for f in before)
+
     # ------------------------------------------------------------------
     def enter(self, mode: int, t: float, y: np.ndarray, after_switch: bool):
         """Consistent state in ``mode`` at ``t``, following switches the vector fields force.
@@ -242,7 +254,11 @@ class Run:
                         series_at = self.integ.guard_series(self.cs, mode, t, y, self.opt.taylor_order)
                     s = lead_sign(series_at(g.index), eta)
                     if d != 0 and s == d:
-                        fire, coincident = g, True
+                        # coincident (reached zero by itself, not put there by this instant's
+                        # switches): only a guard of another component than those that switched;
+                        # a component's own next switch (a stop and the breakaway it lands on
+                        # when the friction level is 0) is caused by its previous one
+                        fire, coincident = g, self._independent(g.name, fired, after_switch)
                         unresolved.append(f"`{g.name}` of mode `{cm.name}` ({h:.3g} within {eta:.3g})")
                         break
                     disarmed[g.index] = s if s != 0 else (-float(d) if d else 1.0)

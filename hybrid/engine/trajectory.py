@@ -51,7 +51,9 @@ class TransitionRecord:
     coincident : bool
         A chained switch whose own guard reached zero at that instant too (decided within its
         noise band: e.g. two symmetric contacts stopping together), not one the previous switches
-        caused (a guard they pushed beyond zero). Perturbed, it moves with its own guard, so a
+        caused (a guard they pushed beyond zero or put at zero). Only a component's transition can
+        be coincident, and only where none of the instant's earlier switches is of that component:
+        a system without components cannot tell, and takes every chained switch as caused. Perturbed, it moves with its own guard, so a
         monodromy matrix takes it as a switch of its own (:func:`switch_groups`).
     """
 
