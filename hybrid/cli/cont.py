@@ -149,7 +149,6 @@ def run(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     time_scale(system, params, None)  # a model without a period guess is refused here
     out = output_dir(system, args)
-    announce(system, preset, params)
     bar = ProgressBar(f"cont {system.name}", enabled=args.progress)
     settings = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
     t0 = time.perf_counter()
@@ -168,6 +167,7 @@ def run(args) -> int:
     obranches: list = []
     stopped: BaseException | None = None  # a budget that ran out, or an interrupt
     with results(out, FILES) as files:
+        announce(system, preset, params)  # (after the folder is locked and checked)
         try:
             with time_limit(args.max_time):
                 _compute(

@@ -20,7 +20,7 @@ from ..core.budget import time_limit
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
-from ..core.workers import Terminated
+from ..core.workers import Terminated, cap_workers
 from ..engine.io import csv_cell, to_json, write_rows_csv
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem
@@ -196,9 +196,9 @@ def cmd_frc(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
-    info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
     with results(out, FILES) as staged:
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
         fr, files, summary, wall = _run_frc(
             args, system, params, preset, par, forcing, lo, hi, options, out, staged
         )
@@ -249,6 +249,9 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
         written["rows"] += 1
 
     bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
+    workers, note = cap_workers(args.workers, None)
+    if note:  # (the pieces of the range cap them too, silently: one per resonance)
+        info(note)
     t0 = time.perf_counter()
     try:
         with time_limit(args.max_time):
@@ -260,7 +263,7 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
                 options=options,
                 progress=bar,
                 on_point=on_point,
-                workers=args.workers or os.cpu_count() or 1,
+                workers=workers,
                 # matplotlib is imported (0.4 s) while the workers compute
                 while_computing=None if args.no_plot else import_in_background("hybrid.plot.frc"),
             )

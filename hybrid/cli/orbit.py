@@ -126,8 +126,8 @@ def cmd_orbit(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
     with results(out, FILES) as files:
+        announce(system, preset, params)  # (after the folder is locked and checked)
         t0 = time.perf_counter()
         with time_limit(args.max_time):
             orbit = periodic_orbit(

@@ -109,7 +109,6 @@ def cmd_simulate(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
     kwargs = {"samples_per_period": spp, "include_events": True} if period else {}
     # Samples and switches go to the CSV files as the run goes on; memory holds the figure's window
@@ -125,6 +124,7 @@ def cmd_simulate(args) -> int:
     )
     at_start = SwitchesAt(0.0)
     with results(out, FILES) as files:
+        announce(system, preset, params)  # (after the folder is locked and checked)
         t0 = time.perf_counter()
         with (
             TrajectoryCSVWriter(files.path("trajectory.csv"), system) as samples_csv,

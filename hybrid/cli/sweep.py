@@ -182,11 +182,12 @@ def register(sub) -> None:
     p.set_defaults(handler=cmd_chart)
 
 
-def dask_client(address: str, timeout: float = HANDSHAKE_TIMEOUT):
+def dask_client(address: str, timeout: float | None = None):
     """A ``distributed.Client`` connected to the Dask scheduler at ``address``.
 
-    The scheduler is asked who it is first, within ``timeout`` seconds (a listener that is not a
-    Dask scheduler, or that never answers, is refused in that time, whatever it sends).
+    The scheduler is asked who it is first, within ``timeout`` seconds (default
+    :data:`HANDSHAKE_TIMEOUT`): a listener that is not a Dask scheduler, or that never answers, is
+    refused in that time, whatever it sends.
 
     Raises
     ------
@@ -201,6 +202,7 @@ def dask_client(address: str, timeout: float = HANDSHAKE_TIMEOUT):
         raise UsageError(
             "`--scheduler` needs Dask's distributed scheduler: pip install 'hybrid-friction[dask]'"
         ) from None
+    timeout = HANDSHAKE_TIMEOUT if timeout is None else timeout
 
     async def identity():
         comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)

@@ -540,9 +540,10 @@ class OutputFiles:
                     os.unlink(dst)  # a previous run's file this one did not write
             self.done = True
             shutil.rmtree(self.staging, ignore_errors=True)
-        except OutputError:
-            raise
-        except OSError as exc:
+        except OSError as exc:  # (what could not be put in place is removed: no partial run left)
+            self.discard()
+            if isinstance(exc, OutputError):
+                raise
             raise OutputError(os_error_text(exc, self._shown(exc.filename)), exc.errno) from None
         return placed
 

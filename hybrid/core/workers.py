@@ -119,7 +119,7 @@ def cpus() -> int:
         return os.cpu_count() or 1
 
 
-def cap_workers(requested: int | None, work: int, what: str = "tasks") -> tuple[int, str | None]:
+def cap_workers(requested: int | None, work: int | None, what: str = "tasks") -> tuple[int, str | None]:
     """Worker processes for ``work`` tasks: ``requested`` (default: the CPUs) capped at the work and
     at the CPUs.
 
@@ -127,27 +127,30 @@ def cap_workers(requested: int | None, work: int, what: str = "tasks") -> tuple[
     ----------
     requested : int or None
         Asked for (``--workers``); None: as many as the CPUs.
-    work : int
-        Tasks to run (at least one worker is used).
+    work : int or None
+        Tasks to run (at least one worker is used); None: not known here (capped at the CPUs only).
     what : str
         The tasks, in the note (e.g. ``"points to compute"``).
 
     Returns
     -------
     (int, str or None)
-        The workers, and a note if ``requested`` was capped (None otherwise).
+        The workers, and a note saying why if ``requested`` was capped (None otherwise).
 
     Examples
     --------
-    >>> cap_workers(300, 2, "points to compute")[0]
-    2
+    >>> n, note = cap_workers(300, 1, "point to compute")
+    >>> n, note.startswith("note: --workers 300 capped at 1 (1 point to compute")
+    (1, True)
     """
     n_cpu = cpus()
     want = n_cpu if requested is None else int(requested)
-    n = max(1, min(want, work, n_cpu))
+    n = max(1, min(want, n_cpu, work if work is not None else want))
     note = None
     if requested is not None and n < want:
-        note = f"note: --workers {want} capped at {n} ({work} {what}, {n_cpu} CPUs)"
+        why = [f"{work} {what}"] if work is not None and work <= n else []
+        why += [f"{n_cpu} CPUs"] if n_cpu <= n else []
+        note = f"note: --workers {want} capped at {n} ({', '.join(why)})"
     return n, note
 
 

@@ -140,7 +140,7 @@ class _CSVSink(Sink):
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
+        if exc_type is None or issubclass(exc_type, KeyboardInterrupt):  # (an interrupt keeps the rows)
             self.close()
         elif self._fh is not None:
             try:

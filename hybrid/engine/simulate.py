@@ -260,7 +260,12 @@ def run_compiled(
         keep_last,
         MAX_SAMPLES if max_kept is None else min(max_kept, MAX_SAMPLES),
     )
-    return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
+    try:
+        return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
+    except KeyboardInterrupt:  # the samples computed so far go to the sink (e.g. a CSV file) all the same
+        if sink is not None:
+            recorder.flush()
+        raise
 
 
 def _no_outputs(t: np.ndarray, y: np.ndarray, m: np.ndarray) -> dict[str, np.ndarray]:
