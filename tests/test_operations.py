@@ -714,7 +714,9 @@ def test_a_full_disk_during_a_sweep_then_resume_completes(tmpfs, oscillator, cap
     code, _, err = run(args, capsys)
     assert code == 1
     last = err.splitlines()[-1]
-    assert last.startswith(f"hybrid: error: cannot write '{tmpfs / 'o'}/point-") and last.endswith(ENOSPC_LINE)
+    assert last.startswith(f"hybrid: error: cannot write '{tmpfs / 'o'}/point-") and last.endswith(
+        ENOSPC_LINE
+    )
     assert "Traceback" not in err
     assert not [
         p for p in (tmpfs / "o").iterdir() if p.name.startswith(".")

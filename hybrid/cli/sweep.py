@@ -414,15 +414,11 @@ def _nothing():
 
 def _stop(executor) -> None:
     """End the executor's work now: a process pool's workers killed (the points in progress are
-    dropped: they have no file), a Dask client's futures cancelled and the client closed."""
+    dropped: they have no file), a Dask client closed."""
     if isinstance(executor, ProcessPool):
         executor.kill()
         return
-    with _quiet_dask():
-        try:
-            executor.cancel(list(getattr(executor, "futures", {}).values()), force=True)
-        except Exception:
-            pass
+    with _quiet_dask():  # (hybrid.sweep has cancelled its futures)
         try:
             executor.close(timeout=5)
         except Exception:

@@ -972,33 +972,40 @@ def _run(
         return res
     done: queue.Queue = queue.Queue()
     pending = {}
-    for index in todo:
-        fut = executor.submit(run_point, *args, grid[index], *rest)
-        pending[fut] = index
-        fut.add_done_callback(done.put)
-    beat = time.monotonic()
-    while pending:
-        try:
-            fut = done.get(timeout=0.2)
-        except queue.Empty:
-            fut = None
-        if deadline_passed():
-            res.stopped = _stopped_text(len(pending))
-            return res
-        if heartbeat is not None and time.monotonic() - beat >= HEARTBEAT:
-            beat = time.monotonic()
-            heartbeat()
-        if fut is None:
-            continue
-        index = pending.pop(fut, None)
-        if index is None:
-            continue
-        try:
-            result = fut.result()
-        except Exception as exc:  # the executor lost it (a worker died, ...): no file, computed on resume
-            res.lost.append((index, f"{type(exc).__name__}: {exc}"))
-            continue
-        finish(index, result)
+    try:
+        for index in todo:
+            fut = executor.submit(run_point, *args, grid[index], *rest)
+            pending[fut] = index
+            fut.add_done_callback(done.put)
+        beat = time.monotonic()
+        while pending:
+            try:
+                fut = done.get(timeout=0.2)
+            except queue.Empty:
+                fut = None
+            if deadline_passed():
+                res.stopped = _stopped_text(len(pending))
+                return res
+            if heartbeat is not None and time.monotonic() - beat >= HEARTBEAT:
+                beat = time.monotonic()
+                heartbeat()
+            if fut is None:
+                continue
+            index = pending.pop(fut, None)
+            if index is None:
+                continue
+            try:
+                result = fut.result()
+            except Exception as exc:  # the executor lost it (a worker died, ...): no file, computed on resume
+                res.lost.append((index, f"{type(exc).__name__}: {exc}"))
+                continue
+            finish(index, result)
+    finally:  # stopped early (a deadline, an interrupt, an error): the points not started are withdrawn
+        for fut in pending:
+            try:
+                fut.cancel()
+            except Exception:  # (an executor already shut down, a cluster gone: nothing left to withdraw)
+                pass
     return res
 
 
