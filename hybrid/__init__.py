@@ -21,6 +21,7 @@ from .core.errors import AlgebraicSolveError as AlgebraicSolveError
 from .core.errors import BudgetExceeded as BudgetExceeded
 from .core.errors import ConvergenceError as ConvergenceError
 from .core.errors import ExpressionError as ExpressionError
+from .core.errors import FolderInUse as FolderInUse
 from .core.errors import GrazingSwitchError as GrazingSwitchError
 from .core.errors import HybridError as HybridError
 from .core.errors import InputError as InputError
@@ -28,6 +29,7 @@ from .core.errors import InputTypeError as InputTypeError
 from .core.errors import IntegratorError as IntegratorError
 from .core.errors import ModelError as ModelError
 from .core.errors import NotAffineError as NotAffineError
+from .core.errors import OutputError as OutputError
 from .core.errors import ParameterOutOfDomain as ParameterOutOfDomain
 from .core.errors import SampleCapReached as SampleCapReached
 from .core.errors import SimulationError as SimulationError
@@ -99,6 +101,7 @@ __all__ = [
     "filippov_system",
     "forcing_parameter",
     "frequency_response",
+    "FolderInUse",
     "FrequencyResponse",
     "FUNCTIONS",
     "GrazingSwitchError",
@@ -122,6 +125,7 @@ __all__ = [
     "NotAffineError",
     "orbit_branch",
     "ORBIT_OPTIONS",
+    "OutputError",
     "Parameter",
     "ParameterOutOfDomain",
     "periodic_orbit",

@@ -6,6 +6,8 @@ import math
 import os
 from pathlib import Path
 
+from hybrid.core.files import write_atomic
+
 __all__ = ["write_report", "number_table"]
 
 #: Lists longer than this are summarised (first, smallest, largest, last) in the tables.
@@ -153,6 +155,11 @@ def write_report(path: Path, out: Path, meta: dict, figures: list[dict]) -> Path
         f"- wall time: **{meta['total_wall_seconds']:.1f} s** in total ({meta['compute_wall_seconds']:.1f} s of "
         f"computation, {meta['jobs']} jobs)",
         f"- load average (1, 5, 15 min, `os.getloadavg()`): {la0} at the start, {la1} at the end",
+        *(
+            [f"- **not made**: {', '.join(meta['not_made'])} ({meta['stopped']})"]
+            if meta.get("not_made")
+            else []
+        ),
         "",
         "| figure | integrator | jobs | compute [s] (sum over its jobs) | largest exact-vs-IDA peak difference | verdict |",
         "|---|---|---|---|---|---|",
@@ -206,5 +213,4 @@ def write_report(path: Path, out: Path, meta: dict, figures: list[dict]) -> Path
                         f"| {c['what']} | {c['exact']:.10g} | {c['ida']:.10g} | {ida['max_relative_difference']:.2e} |"
                     )
         lines += ["", f"Compute time {f['compute_seconds']:.1f} s over {f['jobs']} jobs.", ""]
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    return write_atomic(path, "\n".join(lines) + "\n")

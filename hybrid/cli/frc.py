@@ -20,9 +20,9 @@ from ..core.budget import time_limit
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
+from ..core.workers import Terminated, cap_workers
 from ..engine.io import csv_cell, to_json, write_rows_csv
 from ..model.plot_hints import plot_hints
-from ..model.registry import resolve_model
 from ..model.system import HybridSystem
 from .common import (
     OUT_HELP,
@@ -34,13 +34,18 @@ from .common import (
     budget_options,
     check_integrator,
     info,
+    model,
     output_dir,
     parameters,
     positive_float,
     positive_int,
+    results,
 )
 
 FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
+
+#: The files `frc` writes in its output folder.
+FILES = ("frc.csv", "frc_special.csv", "frc_overlays.csv", "frc.png", "frc.json")
 
 
 def register(sub) -> None:
@@ -165,7 +170,7 @@ def import_in_background(module: str) -> Callable[[], None]:
 
 
 def cmd_frc(args) -> int:
-    system = resolve_model(args.model)
+    system = model(args.model)
     if system.period is None:
         raise UsageError(
             f"model `{system.name}` declares no forcing `period`: a frequency response needs one; an "
@@ -191,26 +196,62 @@ def cmd_frc(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
-    info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
-    out.mkdir(parents=True, exist_ok=True)
+    with results(out, FILES) as staged:
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
+        fr, files, summary, wall = _run_frc(
+            args, system, params, preset, par, forcing, lo, hi, options, out, staged
+        )
+    if fr is None:  # interrupted: the rows written are in place (`wall` is the exit code)
+        return wall
+    print(to_json(summary) if args.json else frc_text(fr, preset))
+    for f in files:
+        info(f"wrote {f}")
+    n = sum(len(b.points) for b in fr.branches)
+    info(f"{n} periodic orbits in {wall:.1f} s")
+    family = sum(1 for b in fr.branches for o in b.points if o.family)
+    if family and system.parsed.gauge is None:
+        info(
+            f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
+            "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "
+            "from a transient), which may be off-centre, e.g. touching a guard on one side only (slip setting "
+            "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
+            "element's offset) picks the member (README, docs/models.md)"
+        )
+    if fr.status != ResponseStatus.COMPLETE:
+        for m in fr.messages():
+            info(f"hybrid: {m}")
+        return 1
+    return 0
+
+
+def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, staged):
+    """The curve computed and its files written in ``staged`` (:func:`hybrid.cli.common.results`);
+    ``(fr, files, summary, wall)``, or Nones after an interrupt (the orbits done are kept)."""
     # Every orbit is written to frc.csv as it is accepted: an interrupt keeps what was done.
-    csv_path = out / "frc.csv"
+    csv_path = out / "frc.csv"  # (where it will be once the run ends)
     written = {"rows": 0}
-    fh = csv_path.open("w", newline="")
+    fh = staged.path("frc.csv").open("w", newline="")
     writer = csv.writer(fh)
     columns: list[str] = []
 
     def on_point(k: int, orbit) -> None:
         row = {"branch": k, **orbit_row(par, orbit)}
-        if not columns:
-            columns.extend(row)
-            writer.writerow(columns)
-        writer.writerow([csv_cell(row.get(c)) for c in columns])
-        fh.flush()
+        try:
+            if not columns:
+                columns.extend(row)
+                writer.writerow(columns)
+            writer.writerow([csv_cell(row.get(c)) for c in columns])
+            fh.flush()
+        except OSError as exc:  # (a full disk: the error names the file)
+            exc.filename = exc.filename or str(csv_path)
+            raise
         written["rows"] += 1
 
     bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
+    workers, note = cap_workers(args.workers, None)
+    if note:  # (the pieces of the range cap them too, silently: one per resonance)
+        info(note)
     t0 = time.perf_counter()
     try:
         with time_limit(args.max_time):
@@ -222,18 +263,21 @@ def cmd_frc(args) -> int:
                 options=options,
                 progress=bar,
                 on_point=on_point,
-                workers=args.workers or os.cpu_count() or 1,
+                workers=workers,
                 # matplotlib is imported (0.4 s) while the workers compute
                 while_computing=None if args.no_plot else import_in_background("hybrid.plot.frc"),
             )
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         info(
-            f"hybrid: interrupted after {time.perf_counter() - t0:.1f} s: "
+            f"hybrid: interrupted{_signal_name(exc)} after {time.perf_counter() - t0:.1f} s: "
             f"{written['rows']} periodic orbits kept in {csv_path}"
         )
-        return 130
+        return None, None, None, exc.exit_code if isinstance(exc, Terminated) else 130
     finally:
-        fh.close()
+        try:
+            fh.close()
+        except OSError:  # its rows were flushed one by one: the error, if any, was raised there
+            pass
     bar(1.0)
     wall = time.perf_counter() - t0
 
@@ -241,15 +285,12 @@ def cmd_frc(args) -> int:
 
     files = [csv_path]
     special = fr.special_rows()
-    files.append(
-        write_rows_csv(
-            special,
-            out / "frc_special.csv",
-            None
-            if special
-            else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
-        )
+    write_rows_csv(
+        special,
+        staged.path("frc_special.csv"),
+        None if special else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
     )
+    files.append(out / "frc_special.csv")
     overlays, grid = {}, None
     if par == forcing:  # the models' overlays are curves over the forcing frequency
         zooms = zoom_windows(fr)
@@ -262,11 +303,13 @@ def cmd_frc(args) -> int:
             for name, values in coords.items():
                 for row, v in zip(ov_rows, values, strict=True):
                     row[f"{curve}: {name}"] = float(v)
-        files.append(write_rows_csv(ov_rows, out / "frc_overlays.csv"))
+        write_rows_csv(ov_rows, staged.path("frc_overlays.csv"))
+        files.append(out / "frc_overlays.csv")
     if not args.no_plot:
         from ..plot.frc import plot_frc
 
-        files.append(plot_frc(fr, out / "frc.png", overlays=overlays, grid=grid))
+        plot_frc(fr, staged.path("frc.png"), overlays=overlays, grid=grid)
+        files.append(out / "frc.png")
     summary = {
         "model": system.name,
         "preset": preset,
@@ -292,24 +335,11 @@ def cmd_frc(args) -> int:
         "wall_time_s": wall,
         "files": [str(f) for f in files] + [str(out / "frc.json")],
     }
-    (out / "frc.json").write_text(to_json(summary) + "\n")
+    staged.path("frc.json").write_text(to_json(summary) + "\n")
     files.append(out / "frc.json")
-    print(to_json(summary) if args.json else frc_text(fr, preset))
-    for f in files:
-        info(f"wrote {f}")
-    n = sum(len(b.points) for b in fr.branches)
-    info(f"{n} periodic orbits in {wall:.1f} s")
-    family = sum(1 for b in fr.branches for o in b.points if o.family)
-    if family and system.parsed.gauge is None:
-        info(
-            f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
-            "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "
-            "from a transient), which may be off-centre, e.g. touching a guard on one side only (slip setting "
-            "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
-            "element's offset) picks the member (README, docs/models.md)"
-        )
-    if fr.status != ResponseStatus.COMPLETE:
-        for m in fr.messages():
-            info(f"hybrid: {m}")
-        return 1
-    return 0
+    return fr, files, summary, wall
+
+
+def _signal_name(exc: KeyboardInterrupt) -> str:
+    """`` (SIGTERM)`` for a terminating signal, nothing for Ctrl-C."""
+    return f" ({exc.name})" if isinstance(exc, Terminated) else ""

@@ -3,14 +3,17 @@ transitions, and its network if it is a network file)."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..core.errors import InputError, OutputError
+from ..core.files import check_target, os_error_text
 from ..model.filippov import surfaces
 from ..model.loader import describe_model_file, draw_model_file
-from ..model.registry import builtin_models, is_model_file, resolve_model
+from ..model.registry import builtin_models, is_model_file
 from ..model.system import HybridSystem
-from .common import UsageError, info
+from .common import UsageError, info, model
 
 
 def register(sub) -> None:
@@ -117,16 +120,44 @@ def show_text(system: HybridSystem, description: str | None = None) -> str:
 
 
 def cmd_show(args) -> int:
-    system = resolve_model(args.model)
-    is_file = is_model_file(args.model) or Path(args.model).exists()
-    description = describe_model_file(Path(args.model)) if is_file else None
+    system = model(args.model)
+    description = describe_model_file(Path(args.model)) if is_model_file(args.model) else None
     if args.out is not None:
-        out = Path(args.out)
-        if not args.out.strip() or out.is_dir() or not out.parent.is_dir():
-            raise UsageError(f"`--out {args.out}` must name a PNG file in an existing folder")
-        if description is None or not draw_model_file(Path(args.model), out):
+        out = png_target(args.out)
+        if description is None:
             raise UsageError(f"model `{system.name}` is not a network file: there is no network to draw")
+        tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
+        try:
+            draw_model_file(Path(args.model), tmp)
+            os.replace(tmp, out)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise OutputError(os_error_text(exc, out), exc.errno) from None
     print(show_text(system, description))
     if args.out is not None:
         info(f"wrote {args.out}")
     return 0
+
+
+def png_target(text: str) -> Path:
+    """``--out PNG`` of ``show``, checked before anything is drawn: a file (not a folder, a link, a
+    FIFO) in an existing folder that can be written.
+
+    Raises
+    ------
+    UsageError
+    """
+    out = Path(text)
+    if not text.strip() or out.is_dir() or not out.parent.is_dir():
+        raise UsageError(f"`--out {text}` must name a PNG file in an existing folder")
+    try:
+        check_target(out)
+    except InputError as exc:
+        raise UsageError(str(exc)) from None
+    probe = out.with_name(f".{out.name}.{os.getpid()}.probe")
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+        os.unlink(probe)
+    except OSError as exc:
+        raise UsageError(os_error_text(exc, out)) from None
+    return out

@@ -25,8 +25,10 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..core.budget import deadline_passed, limit_text
 from ..core.errors import InputError, InputTypeError, ParameterOutOfDomain
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.status import BranchStatus
 from ..model.system import HybridSystem
 from ..orbits.autonomous import AutonomousSolver, finish, resolve_phase
 from ..orbits.equilibria import Equilibrium, equilibrium, locate_hopf
@@ -65,6 +67,8 @@ def equilibrium_branch(
         ``"real-eigenvalue"`` for a real eigenvalue, located by
         :func:`hybrid.orbits.equilibria.locate_hopf`; its ``index`` is that equilibrium's).
         ``status`` is ``"completed"``; ``message`` counts the values without an equilibrium.
+        Inside a :func:`hybrid.time_limit` whose deadline passes, the values after it are not
+        computed: ``status`` ``"stopped"``, ``reason`` ``"budget"``.
 
     Raises
     ------
@@ -81,6 +85,8 @@ def equilibrium_branch(
     grid: list[Equilibrium] = []
     guess = x0
     for v in values:
+        if deadline_passed():  # the computation's deadline (hybrid.time_limit): stop at this value
+            break
         eq = equilibrium(system, {**params, parameter: float(v)}, mode, guess)
         grid.append(eq)
         if eq.converged:
@@ -108,6 +114,12 @@ def equilibrium_branch(
     missing = sum(1 for e in grid if not e.converged)
     if missing:
         branch.message = f"no equilibrium found at {missing} of {len(grid)} values"
+    if len(grid) < values.size:
+        branch.status, branch.reason = BranchStatus.STOPPED, "budget"
+        branch.message = (
+            f"time limit reached ({limit_text()}) after {len(grid)} of {values.size} "
+            f"values of {parameter}" + (f"; {branch.message}" if branch.message else "")
+        )
     return branch
 
 

@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 
 from ..core.errors import ExpressionError
 
-__all__ = ["FUNCTIONS", "Expr", "parse", "diff", "substitute", "free_symbols"]
+__all__ = ["FUNCTIONS", "Expr", "parse", "diff", "substitute", "free_symbols", "to_data", "from_data"]
 
 MAX_EXPRESSION_LENGTH = 10_000
 
@@ -470,6 +470,94 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
 # ----------------------------------------------------------------------------
 # Tree utilities (iterative, each distinct node visited once)
 # ----------------------------------------------------------------------------
+#: Operations of :class:`Expr` nodes and the number of sub-expressions each takes (``from_data``).
+_ARITY = {"add": 2, "sub": 2, "mul": 2, "div": 2, "pow": 2, "neg": 1}
+
+
+def to_data(e: Expr) -> list:
+    """An expression as plain data (JSON-ready), its DAG kept: a list of nodes, each after its
+    sub-expressions, the last the expression itself.
+
+    A node is ``["num", value]`` (a non-finite value as the text ``"inf"``, ``"-inf"``, ``"nan"``),
+    ``["sym", name]``, ``["call", function, i]`` or ``[op, i, ...]`` with ``i`` the index of a
+    sub-expression in the list. A shared sub-expression is written once, so the data is as large
+    as the DAG (never the exponential text of :func:`to_string`), and equal expressions give
+    equal data. :func:`from_data` builds the same node (the same object: nodes are interned).
+
+    Examples
+    --------
+    >>> to_data(parse("x*x + 1", {"x"}, "e"))
+    [['sym', 'x'], ['mul', 0, 0], ['num', 1.0], ['add', 1, 2]]
+    """
+    index: dict[Expr, int] = {}
+    nodes: list[list] = []
+    stack: list[Expr] = [e]
+    while stack:  # iterative post-order: the depth of a model's expression is not Python's stack's
+        node = stack[-1]
+        if node in index:
+            stack.pop()
+            continue
+        todo = [k for k in children(node) if k not in index]
+        if todo:
+            stack.extend(reversed(todo))
+            continue
+        stack.pop()
+        op, args = node.op, node.args
+        if op == "num":
+            v = float(args[0])
+            item = ["num", v if math.isfinite(v) else repr(v)]
+        elif op == "sym":
+            item = ["sym", args[0]]
+        elif op == "call":
+            item = ["call", args[0], index[args[1]]]
+        else:
+            item = [op, *(index[a] for a in args)]
+        index[node] = len(nodes)
+        nodes.append(item)
+    return nodes
+
+
+def from_data(nodes: list) -> Expr:
+    """The expression of :func:`to_data` (the same interned node).
+
+    Raises
+    ------
+    ExpressionError
+        ``nodes`` is not what :func:`to_data` writes (an unknown operation or function, an index
+        that does not point before the node, a value that is not a number).
+    """
+    built: list[Expr] = []
+    try:
+        for k, item in enumerate(nodes):
+            op, rest = item[0], list(item[1:])
+            if op == "num" and len(rest) == 1:
+                v = rest[0]
+                if isinstance(v, bool) or not isinstance(v, int | float | str):
+                    raise ExpressionError(f"node {k}: {v!r} is not a number")
+                built.append(Expr("num", (float(v),)))
+            elif op == "sym" and len(rest) == 1 and isinstance(rest[0], str):
+                built.append(Expr("sym", (rest[0],)))
+            elif op == "call" and len(rest) == 2 and rest[0] in FUNCTIONS:
+                built.append(Expr("call", (rest[0], built[_before(rest[1], k)])))
+            elif op in _ARITY and len(rest) == _ARITY[op]:
+                built.append(Expr(op, tuple(built[_before(i, k)] for i in rest)))
+            else:
+                raise ExpressionError(f"node {k}: {str(item)[:80]} is not an expression node")
+        if not built:
+            raise ExpressionError("no node")
+    except (TypeError, IndexError, ValueError) as exc:
+        if isinstance(exc, ExpressionError):
+            raise
+        raise ExpressionError(f"not the data of an expression: {exc}") from None
+    return built[-1]
+
+
+def _before(i, k: int) -> int:
+    if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < k:
+        raise ExpressionError(f"node {k}: {i!r} is not the index of an earlier node")
+    return i
+
+
 _OPSYM = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
 
 
