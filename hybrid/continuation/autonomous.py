@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -32,9 +33,10 @@ from ..orbits.autonomous import AutonomousSolver, finish, resolve_phase
 from ..orbits.equilibria import Equilibrium, equilibrium, locate_hopf
 from ..orbits.flowmap import FlowMap
 from ..orbits.orbit import ORBIT_OPTIONS, PeriodicOrbit
+from .autolocate import FAILURES, AutoPoint, Locator, locate_end
 from .branch import Branch
 from .palc import RETRY, follow
-from .special import SpecialPoint
+from .special import SpecialPoint, detect, locate
 
 __all__ = ["AUTONOMOUS_CONTINUATION", "equilibrium_branch", "hopf_branch", "orbit_branch"]
 
@@ -155,15 +157,13 @@ def _branch(
     branch = Branch("autonomous-orbits", fm.system, dict(fm.params), par)
     orbits = branch.points
 
-    def bracketed(kind: str, index: int, iv, desc: str) -> SpecialPoint:
-        lo, hi = min(iv), max(iv)
-        amp = dict(orbits[index].amplitude)
-        return SpecialPoint(kind, index, 0.5 * (lo + hi), amp, desc, "bracketed", 0.5 * (hi - lo), (lo, hi))
-
-    def accept(u, info):
+    def make_orbit(u, info):
         y, ev = info
         T = float(u[nd]) if anchored else ev.time
-        orbit = finish(solver, y, mode, T, ev, 0, 0.0, samples)
+        return finish(solver, y, mode, T, ev, 0, 0.0, samples)
+
+    def accept(u, info):
+        orbit = make_orbit(u, info)
         modes = frozenset(orbit.mode_sequence)
         changed = bool(orbits) and modes != state["modes"]
         if changed and (stop_on_mode_change or (state["modes"] - modes and stop_on_mode_loss)):
@@ -174,46 +174,36 @@ def _branch(
         if orbits and orbit.period > PERIOD_JUMP * orbits[-1].period:
             return "period jump"  # a switch missed at a grazing (or an orbit of another kind): not kept
         orbits.append(orbit)
-        if changed:
-            gained, lost = modes - state["modes"], state["modes"] - modes
-            kind, desc = (
-                ("mode-gained", f"mode(s) {', '.join(sorted(gained))} appear(s) in the orbit")
-                if gained
-                else ("mode-lost", f"mode(s) {', '.join(sorted(lost))} leave(s) the orbit")
-            )
-            iv = (orbits[-2].params[par], orbit.params[par])
-            branch.special.append(bracketed(kind, len(orbits) - 1, iv, desc))
-        state["modes"], state["T"] = modes, T
+        state["modes"], state["T"] = modes, orbit.period
         if anchored:
+            y = info[0]
             f = fm.field(mode, y)[d]
             state["anchor"] = (y.copy(), f / np.linalg.norm(f))
-        if len(orbits) >= 3:
-            p = [o.params[par] for o in orbits[-3:]]
-            if (p[1] - p[0]) * (p[2] - p[1]) < 0:
-                desc = "the branch turns back in the parameter (a multiplier crosses +1)"
-                branch.special.append(bracketed("fold", len(orbits) - 2, (p[0], p[2]), desc))
         return None
 
-    _, why = follow(evaluate, u0, t0, settings, index=len(u0) - 1, p_range=p_range, accept=accept)
+    points, why = follow(evaluate, u0, t0, settings, index=len(u0) - 1, p_range=p_range, accept=accept)
+    pts = [AutoPoint(u, t, o) for (u, _, t), o in zip(points, orbits, strict=False)]
+    loc = Locator(evaluate, make_orbit, settings, fm)
+    tol = settings.locate_tol * abs(p_range[1] - p_range[0])
+    _special_points(branch, pts, loc, settings, tol)
     last = orbits[-1].params[par] if orbits else math.nan
     if orbits and (
         why == "boundary"
         or (why in ("stalled", "period jump") and guard_margin(fm, orbits[-1]) <= GRAZING_MARGIN)
     ):
+        sp, extra = locate_end(loc, pts, state["beyond"] if why == "boundary" else None, tol)
         k = len(orbits) - 1
-        if why == "boundary" and state["beyond"] is not None:
-            desc = "the orbit meets a switch it did not have, or a phase vanishes (a grazing)"
-            branch.special.append(bracketed("grazing", k, (last, state["beyond"]), desc))
+        if sp is None:
+            desc = "the branch ended with a guard within the grazing margin: a grazing just beyond the last orbit"
+            iv = (last, math.inf) if len(orbits) < 2 or last >= orbits[-2].params[par] else (-math.inf, last)
+            sp = SpecialPoint(
+                "grazing", k, last, dict(orbits[k].amplitude), desc, "not located", math.inf, iv
+            )
         else:
-            desc = (
-                "the branch stalled with a guard within the grazing margin: a grazing just beyond the last "
-                "orbit, not located"
-            )
-            amp = dict(orbits[k].amplitude)
-            branch.special.append(
-                SpecialPoint("grazing", k, last, amp, desc, "bracketed", math.nan, (last, last))
-            )
-        branch.stop("grazing", f"stopped at {par}={last:.8g}: {desc}")
+            orbits.extend(extra)
+            sp = replace(sp, index=k + sp.index)
+        branch.special.append(sp)
+        branch.stop("grazing", f"stopped at {par}={last:.8g}: {sp.description}")
     elif why == "stalled" and not orbits:
         branch.stop("no-start", "no first orbit: the corrector failed at the start")
     elif why == "stalled":
@@ -232,6 +222,50 @@ def _branch(
     else:  # "range"
         branch.message = f"left the range at {par}={last:.8g}"
     return branch
+
+
+def _special_points(branch: Branch, pts: list, loc: Locator, settings, tol: float) -> None:
+    """Detect the special points between consecutive points of an autonomous branch and locate
+    them (:func:`hybrid.continuation.special.locate` on the branch's corrector); the orbit at each
+    located point is inserted into ``branch.points`` after the step's first orbit."""
+    if len(pts) < 2:
+        return
+    st = replace(settings, locate_tol=tol)  # (locate takes it relative to the continuer's scale, 1)
+    out, special = [pts[0].orbit], []
+    for a, b in zip(pts, pts[1:], strict=False):
+        ds = float(a.tangent @ (b.u - a.u))
+        found = detect(a, b) if ds > 0 else []
+        located = []
+        for kind, desc in found:
+            if kind == "nonsmooth":
+                located.append((kind, desc, None))
+                continue
+            located.append((kind, desc, locate(loc, a, b, kind, ds, st, FAILURES)))
+        for kind, desc, lc in located:
+            if lc is None:
+                prev = next((x for x in reversed(located) if x[2] is not None), None)
+                lc = prev[2] if prev else None
+            if lc is None:
+                k = len(out)
+                lo, hi = sorted((a.p, b.p))
+                p, acc, iv, status = 0.5 * (lo + hi), 0.5 * (hi - lo), (lo, hi), "bracketed"
+            else:
+                if lc.point is None or lc.point is b:
+                    k = len(out)  # b, appended below
+                elif lc.point is a:
+                    k = len(out) - 1
+                else:
+                    out.append(lc.point.orbit)
+                    k = len(out) - 1
+                p, acc, iv, status = lc.parameter, lc.accuracy, lc.interval, lc.status
+                if lc.note:
+                    desc = f"{desc}; {lc.note}"
+            special.append((kind, k, p, desc, status, acc, iv))
+        out.append(b.orbit)
+    branch.points[:] = out
+    for kind, k, p, desc, status, acc, iv in special:
+        k = min(k, len(out) - 1)
+        branch.special.append(SpecialPoint(kind, k, p, dict(out[k].amplitude), desc, status, acc, iv))
 
 
 #: A point whose period exceeds this multiple of its predecessor's ends the branch.

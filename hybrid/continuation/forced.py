@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -57,6 +58,10 @@ from .special import SpecialPoint, detect, locate
 __all__ = ["SpecialPoint", "continue_orbits"]
 
 _FAILURES = (ArithmeticError, RuntimeError, np.linalg.LinAlgError)
+
+#: How much tighter (rtol and atol) the rerun of a probe is that estimates the integration error of
+#: its phases (:meth:`_Continuer.rerun`).
+TIGHTER = 100.0
 
 
 # ----------------------------------------------------------------------
@@ -134,6 +139,7 @@ class _Continuer:
         self.coarse = coarse_shooter(self.sh, self.tol)
         self._coarse_jac = True  # the Newton system last seen fit for a coarse M (see correct)
         self.bs: np.ndarray | None = None  # balancing scales of the state, from the first point
+        self.tight: Shooter | None = None  # the map at tighter tolerances (see rerun)
 
     def at(self, p: float) -> None:
         params = {**self.base, self.parameter: p}
@@ -190,12 +196,16 @@ class _Continuer:
         samples: int,
         force_gauge: bool = False,
         light: bool = False,
+        polish: bool = False,
     ) -> _Point:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
         Returns the converged point with its orbit and tangent (from the orbit's own Jacobian);
         ``light``: without them (no sampled run, no amplitudes) until its ``orbit`` is asked for
-        (e.g. the probes that locate a mode change, of which only one is kept).
+        (e.g. the probes that locate a mode change, of which only one is kept). ``polish``: the
+        converged point takes one more Newton step where that decreases the residual (a point
+        accepted at ``tol`` may lie 1e-9 off, which moves a grazing by 1e-12 on the absorber: the
+        probes that locate a special point on a noise-free map are polished).
         Damped Newton: an iterate whose residual is larger than the last one's is replaced by a
         shorter step (down to 1/16); if none decreases the residual the step fails (a worse
         iterate is never kept). Converged: residual below ``tol`` and the scaled update below
@@ -222,6 +232,7 @@ class _Continuer:
         y[d] = Xp[:-1]
         p = float(Xp[-1])
         it, prev, lam = 0, None, 1.0
+        saved = None  # the accepted point while it is polished
         # Coarse runs and runs with samples ahead of acceptance only on a model with a gauge: without
         # one a family of orbits is held by its own direction, from the member nearest the last
         # point, which may graze a guard; a run of another accuracy or with samples (other steps)
@@ -245,10 +256,14 @@ class _Continuer:
             else:
                 tr = self.sh.run(y, pt.mode, t0, samples=samples)
             if not tr.success:
+                if saved is not None:
+                    return saved
                 raise _Fail(f"run failed at {self.parameter}={p:.8g}: {tr.message}", "run-failed", tr.status)
             r = nw.residual(tr, y)
             scale = state_scale(y, d)
             res = float(np.max(np.abs(r))) / scale
+            if saved is not None and (res > prev[2] or tr.mode_final != pt.mode):
+                return saved  # the polishing step did not help: the point as accepted
             if staged and (res <= COARSE_SWITCH * COARSE_RTOL or scale > 1e3 * max(sy, 1e-300)):
                 staged = False  # near the coarse map's noise (or far off): the requested map here
                 continue
@@ -318,8 +333,18 @@ class _Continuer:
                     new.orbit = finish_orbit(
                         self.sh, nw, y, pt.mode, t0, it, res, self.tol, samples, "", tr=tr, M=M
                     )
+                if polish and saved is None and res > 0.0:
+                    saved = new  # one more step from it (kept if that does not help)
+                    prev, lam = (y.copy(), p, res, delta), 1.0
+                    y = y.copy()
+                    y[d] += delta[:-1]
+                    p = float(p + delta[-1])
+                    staged = ahead = False
+                    continue
                 return new
             if it == max_iter:
+                if saved is not None:
+                    return saved
                 break
             it += 1
             ahead = gauged and bool(samples) and not light and not staged and res <= SAMPLE_AHEAD
@@ -345,6 +370,27 @@ class _Continuer:
         if tr is None or not tr.success or not np.all(np.isfinite(tr.y_final)):
             return None
         return tr
+
+    def rerun(self, pt: _Point, factor: float = TIGHTER) -> _Summary | None:
+        """The run from ``pt``'s section state at tolerances ``factor`` times tighter (IDA), as a
+        summary (events, mode fractions): the difference of its phases from ``pt``'s estimates
+        their integration error. None on the exact integrator, or if the run fails."""
+        if self.sh.integrator.exact:
+            return None
+        if self.tight is None:
+            o = self.sh.options
+            atol = (
+                {k: v / factor for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol / factor
+            )
+            opts = replace(o, rtol=o.rtol / factor, atol=atol, atol_default=o.atol_default / factor)
+            self.tight = Shooter(self.system, self.sh.params, opts, None)
+        self.at(pt.p)
+        self.tight.set_params({**self.base, self.parameter: pt.p})
+        try:
+            tr = self.tight.run(pt.y, pt.mode, pt.phi * self.sh.period)
+        except _FAILURES:
+            return None
+        return _Summary(tr, self.tight.period) if tr.success else None
 
     def complete(self, pt: _Point, nw, t0: float, it: int, res: float, samples: int, M) -> PeriodicOrbit:
         """The orbit of a light point: its sampled run and amplitudes (the monodromy ``M`` is known)."""
