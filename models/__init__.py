@@ -21,6 +21,7 @@ __all__ = [
     "isolator",
     "coulomb",
     "coulomb_sign",
+    "friction_oscillator",
     "belt",
     "belt_stribeck",
     "belt_damper",
@@ -55,6 +56,12 @@ def coulomb_sign() -> HybridSystem:
     return _load("coulomb_sign")
 
 
+def friction_oscillator() -> HybridSystem:
+    """1-DOF oscillator with viscous damping, Coulomb friction and stiction; presets ``denhartog``
+    (Den Hartog 1931, the default), ``shaw`` (Shaw 1986: static friction above kinetic, no damping)."""
+    return _load("friction_oscillator")
+
+
 def belt_sign() -> HybridSystem:
     """Mass on a moving belt written with ``sign(v - v_b)`` (Filippov); presets ``standard``, ``damped``."""
     return _load("belt_sign")
@@ -81,6 +88,7 @@ BUILTIN = {
     "isolator": isolator,
     "coulomb": coulomb,
     "coulomb_sign": coulomb_sign,
+    "friction_oscillator": friction_oscillator,
     "belt_sign": belt_sign,
     "belt": belt,
     "belt_stribeck": belt_stribeck,

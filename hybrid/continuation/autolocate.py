@@ -89,6 +89,16 @@ class Locator:
         u, J, info, _ = got
         return AutoPoint(u, tangent(J, a.tangent), self.make_orbit(u, info))
 
+    def between(self, q1: AutoPoint, q2: AutoPoint, lam: float) -> AutoPoint:
+        """The point ``lam`` of the way along the chord from ``q1`` to ``q2``, the chord's direction its
+        tangent (see :meth:`hybrid.continuation.forced._Continuer.between`)."""
+        t = q2.u - q1.u
+        return AutoPoint(q1.u + lam * t, t / max(float(np.linalg.norm(t)), 1e-300), None)
+
+    def coords(self, pt: AutoPoint) -> np.ndarray:
+        """The point's unknowns (the units of the branch's arclength)."""
+        return pt.u
+
     def rerun(self, pt: AutoPoint, factor: float = 100.0):
         """One period from ``pt``'s orbit at tolerances ``factor`` times tighter (IDA), as a summary;
         None on the exact integrator or if the run fails."""

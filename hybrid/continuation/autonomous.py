@@ -93,6 +93,8 @@ def equilibrium_branch(
         b = grid[k + 1] if k + 1 < len(grid) else None
         if b is None or not (a.converged and b.converged):
             continue
+        if a.admissible != b.admissible:
+            branch.points.append(_boundary(system, params, mode, parameter, a, b, branch))
         ra, rb = a.eigenvalues[0].real, b.eigenvalues[0].real
         if ra * rb < 0:
             hp = locate_hopf(system, params, mode, parameter, (a.params[parameter], b.params[parameter]), a.x)
@@ -111,6 +113,64 @@ def equilibrium_branch(
     if missing:
         branch.message = f"no equilibrium found at {missing} of {len(grid)} values"
     return branch
+
+
+#: Regula falsi on a boundary equilibrium's margin: iterations at most, and the bracket's width at
+#: which it is located (relative to ``max(1, |p|)``).
+BOUNDARY_ITER, BOUNDARY_TOL = 80, 1e-13
+
+
+def _boundary(system, params, mode: str, parameter: str, a, b, branch: Branch):
+    """The equilibrium where ``a``'s admissibility changes to ``b``'s (a guard of the mode reaches
+    zero there: a boundary equilibrium), by regula falsi (Illinois) on the margin
+    (:attr:`hybrid.Equilibrium.margin`, smooth in the parameter); the special point recorded on
+    ``branch``. Returns the equilibrium there."""
+    pa, pb = a.params[parameter], b.params[parameter]
+    fa, fb = a.margin, b.margin
+    best, side = (a if abs(fa) < abs(fb) else b), 0
+    for _ in range(BOUNDARY_ITER):
+        if abs(pb - pa) <= BOUNDARY_TOL * max(1.0, abs(pa)) or not fa * fb < 0:
+            break
+        p = (pa * fb - pb * fa) / (fb - fa)
+        w = pb - pa
+        p = min(max(p, min(pa, pb) + 1e-3 * abs(w)), max(pa, pb) - 1e-3 * abs(w))
+        e = equilibrium(system, {**params, parameter: p}, mode, best.x)
+        if not e.converged:
+            break
+        best, f = e, e.margin
+        if f == 0.0:
+            pa = pb = p
+            break
+        if f * fa > 0:
+            pa, fa = p, f
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        else:
+            pb, fb = p, f
+            if side == 1:
+                fa *= 0.5
+            side = 1
+    lo, hi = min(pa, pb), max(pa, pb)
+    ok = hi - lo <= BOUNDARY_TOL * max(1.0, abs(lo))
+    amp = {n: abs(float(x)) for n, x in zip(system.variable_names, best.x, strict=True)}
+    desc = (
+        f"the equilibrium of mode `{mode}` reaches a switching surface: it is "
+        f"{'not ' if a.admissible else ''}admissible beyond"
+    )
+    branch.special.append(
+        SpecialPoint(
+            "boundary-equilibrium",
+            len(branch.points),
+            best.params[parameter],
+            amp,
+            desc if ok else f"{desc}; not located to the tolerance",
+            "located" if ok else "bracketed",
+            max(abs(best.params[parameter] - lo), abs(hi - best.params[parameter])),
+            (lo, hi),
+        )
+    )
+    return best
 
 
 def _branch(

@@ -88,6 +88,7 @@ class _Point:
         self.iterations = iterations
         self.make = None  # builds the orbit of a light point
         self.summary = None  # _Summary of a light point
+        self.jump = 0.0  # the corrector's distance from the predictor, relative to the step
 
     @property
     def orbit(self) -> PeriodicOrbit | None:
@@ -126,7 +127,9 @@ def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: in
 
 
 class _Continuer:
-    def __init__(self, system, params, parameter, p_range, options, settings: ContinuationOptions):
+    def __init__(
+        self, system, params, parameter, p_range, options, settings: ContinuationOptions, periods: int = 1
+    ):
         self.system = system
         self.parameter = parameter
         self.base = dict(params)
@@ -134,12 +137,13 @@ class _Continuer:
         self.sp = abs(self.b - self.a)
         self.settings = settings
         self.tol = settings.newton.tol
-        self.sh = Shooter(system, params, options, free=parameter)
+        self.sh = Shooter(system, params, options, free=parameter, periods=periods)
         # The map at a looser tolerance for the iterations that cannot be accepted (IDA only).
         self.coarse = coarse_shooter(self.sh, self.tol)
         self._coarse_jac = True  # the Newton system last seen fit for a coarse M (see correct)
         self.bs: np.ndarray | None = None  # balancing scales of the state, from the first point
         self.tight: Shooter | None = None  # the map at tighter tolerances (see rerun)
+        self._frame = None  # (d, D) of coords
 
     def at(self, p: float) -> None:
         params = {**self.base, self.parameter: p}
@@ -326,6 +330,11 @@ class _Continuer:
                     raise _Fail("section reached a switch", "section-switch")
                 new = _Point(y, p, pt.mode, pt.phi, iterations=it)
                 new.tangent = self.null_vector(A, D, tau)
+                # how far the corrector moved from the predictor, relative to the step (a jump
+                # onto another branch that crosses this one is far larger than the turn of a step)
+                new.jump = float(np.linalg.norm((np.concatenate([y[d], [p]]) - Xp) / D)) / max(
+                    abs(ds), 1e-300
+                )
                 if light:
                     new.summary = _Summary(tr, T)
                     new.make = partial(self.complete, new, nw, t0, it, res, samples, M)
@@ -371,6 +380,27 @@ class _Continuer:
             return None
         return tr
 
+    def between(self, q1: _Point, q2: _Point, lam: float) -> _Point:
+        """The point ``lam`` of the way along the chord from ``q1`` to ``q2`` (same section), with the
+        chord's direction as its tangent: :meth:`correct` from it with ``ds = 0`` corrects on the
+        chord's normal hyperplane there."""
+        y = q1.y + lam * (q2.y - q1.y)
+        p = q1.p + lam * (q2.p - q1.p)
+        nw = NewtonMap(self.sh, q1.mode)
+        D = self.scales(q1, nw.d)
+        t = (np.concatenate([q2.y[nw.d] - q1.y[nw.d], [q2.p - q1.p]])) / D
+        pt = _Point(y, p, q1.mode, q1.phi, tangent=t / max(float(np.linalg.norm(t)), 1e-300))
+        return pt
+
+    def coords(self, pt: _Point) -> np.ndarray:
+        """``pt``'s section state and parameter in the scaled units of the branch's first point
+        that gets here (to compare points of one step: see :func:`hybrid.continuation.special.locate`)."""
+        nw = NewtonMap(self.sh, pt.mode)
+        if self._frame is None or self._frame[0].size != nw.d.size:
+            self._frame = (nw.d, self.scales(pt, nw.d))
+        d, D = self._frame
+        return np.concatenate([pt.y[d], [pt.p]]) / D
+
     def rerun(self, pt: _Point, factor: float = TIGHTER) -> _Summary | None:
         """The run from ``pt``'s section state at tolerances ``factor`` times tighter (IDA), as a
         summary (events, mode fractions): the difference of its phases from ``pt``'s estimates
@@ -383,7 +413,7 @@ class _Continuer:
                 {k: v / factor for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol / factor
             )
             opts = replace(o, rtol=o.rtol / factor, atol=atol, atol_default=o.atol_default / factor)
-            self.tight = Shooter(self.system, self.sh.params, opts, None)
+            self.tight = Shooter(self.system, self.sh.params, opts, None, self.sh.periods)
         self.at(pt.p)
         self.tight.set_params({**self.base, self.parameter: pt.p})
         try:
@@ -514,6 +544,8 @@ def continue_orbits(
     *,
     x0=None,
     mode0: str | None = None,
+    t0: float = 0.0,
+    periods: int = 1,
     options: SolverOptions | None = None,
     settings: ContinuationOptions | None = None,
     progress: Progress | None = None,
@@ -535,6 +567,12 @@ def continue_orbits(
         Start and end value; the branch stops when it leaves the range.
     x0, mode0 : optional
         Guess of the first orbit (see :func:`hybrid.periodic_orbit`).
+    t0 : float
+        Time of the guess [s] (a state of a computed orbit at its ``t0``: with
+        ``settings.transient_periods = 0`` Newton's method starts from it).
+    periods : int
+        Forcing periods of the orbits (2: the branch of orbits of twice the forcing period, e.g.
+        born at a period doubling, :func:`hybrid.switch_branch`).
     options : SolverOptions, optional
         Tolerances of the runs (default :data:`hybrid.ORBIT_OPTIONS`).
     settings : ContinuationOptions, optional
@@ -586,7 +624,11 @@ def continue_orbits(
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     y0 = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
-    c = _Continuer(system, start_params, parameter, (a, b), options, settings)
+    if not (isinstance(periods, int) and not isinstance(periods, bool) and periods >= 1):
+        raise InputError(f"`periods` must be an integer >= 1, got {periods!r}")
+    if not math.isfinite(float(t0)):
+        raise InputError(f"`t0` must be a finite time, got {t0!r}")
+    c = _Continuer(system, start_params, parameter, (a, b), options, settings, periods)
     for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
         c.at(p)
         n = settings.transient_periods + 1 if p == a else 2
@@ -605,7 +647,7 @@ def continue_orbits(
             c.sh,
             y0,
             mode0,
-            0.0,
+            float(t0),
             settings.transient_periods,
             settings.newton.tol,
             FIRST_ORBIT_MAX_ITER,
@@ -618,8 +660,9 @@ def continue_orbits(
     return branch
 
 
-def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progress) -> None:
-    """Follow the branch from its first orbit (see :func:`continuation`)."""
+def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progress, orient=None) -> None:
+    """Follow the branch from its first orbit (see :func:`continuation`); ``orient``: a scaled
+    direction the first tangent points along (default: the parameter's ``direction``)."""
     st = c.settings
     parameter = c.parameter
     a, b = c.a, c.b
@@ -641,13 +684,13 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             "periodic: is the system forced at all?)",
         )
         return
-    pt = _Point(first.x0.copy(), a, first.mode0, first.t0 / first.period, orbit=first)
+    pt = _Point(first.x0.copy(), first.params[parameter], first.mode0, first.t0 / first.period, orbit=first)
     try:
-        pt.tangent = c.tangent(pt, None, direction)
+        pt.tangent = c.tangent(pt, orient, direction)
         if not first.converged:
             pt = c.correct(pt, 0.0, samples)
             first = pt.orbit
-            pt.tangent = c.tangent(pt, None, direction)
+            pt.tangent = c.tangent(pt, orient, direction)
     except (_Fail, *_FAILURES) as exc:
         if not first.converged:
             stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}; {exc}")

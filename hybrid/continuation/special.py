@@ -305,6 +305,29 @@ def _fold_interval(c, a, lo: tuple, hi: tuple, known: float) -> tuple[float, flo
     return (known, bound) if up else (bound, known)
 
 
+#: A probe farther than this from the chord of its bracket, relative to the chord's length, is
+#: taken for a point of another branch (one that crosses this one at a branch point).
+CHORD_DEVIATION = 0.25
+
+
+def _on_branch(c, lo: tuple, hi: tuple, s: float, pt) -> bool:
+    """Whether ``pt`` (at arclength ``s``) lies as near the chord between the bracket's ends ``lo``
+    and ``hi`` (``(s, point)``) as a point of their branch does: within the chord's sagitta that the
+    turn of their tangents allows (four times it), or :data:`CHORD_DEVIATION` of its length if
+    smaller."""
+    (s1, q1), (s2, q2) = lo, hi
+    if s2 == s1:
+        return True
+    x1, x2, x = c.coords(q1), c.coords(q2), c.coords(pt)
+    length = float(np.linalg.norm(x2 - x1))
+    if not length > 0:
+        return True
+    chord = x1 + (s - s1) / (s2 - s1) * (x2 - x1)
+    turn = float(np.linalg.norm(q2.tangent - q1.tangent)) if q1.tangent.size == q2.tangent.size else 1.0
+    allowed = min(CHORD_DEVIATION, 0.5 * turn + 1e-9) * length
+    return float(np.linalg.norm(x - chord)) <= allowed
+
+
 def locate(c, a, b, kind: str, ds: float, settings, fail_types) -> _Located:
     """Locate the special point of ``kind`` between ``a`` (arclength 0) and ``b`` (``ds``).
 
@@ -362,10 +385,28 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
         s = (s_lo * g_hi - s_hi * g_lo) / (g_hi - g_lo)
         w = s_hi - s_lo
         s = min(max(s, s_lo + 1e-3 * w), s_hi - 1e-3 * w)
-        try:
-            pt = c.correct(a, s, samples, polish=c.sh.integrator.exact)
-        except fail_types as exc:
-            return result(f"corrector failed: {exc}")
+        pt, why = None, ""
+        # the regula falsi's probe, else the bracket's middle and quarters; at a branch point from
+        # the chord of the bracket (the corrector is singular at the point, and from a's tangent
+        # may land on the branch that crosses this one: the chord is nearer this one)
+        for x in (s, s_lo + 0.5 * w, s_lo + 0.25 * w, s_lo + 0.75 * w):
+            try:
+                if kind == "branch-point":
+                    q = c.correct(
+                        c.between(q_lo, q_hi, (x - s_lo) / w), 0.0, samples, polish=c.sh.integrator.exact
+                    )
+                else:
+                    q = c.correct(a, x, samples, polish=c.sh.integrator.exact)
+            except fail_types as exc:
+                why = f"corrector failed: {exc}"
+                continue
+            if kind == "branch-point" and not _on_branch(c, (s_lo, q_lo), (s_hi, q_hi), x, q):
+                why = f"the corrector found a point of another branch at {q.p:.10g}"
+                continue
+            pt, s = q, x
+            break
+        if pt is None:
+            return result(why)
         g = _value(kind, pt, a)
         if not math.isfinite(g):
             return result("test function undefined")
