@@ -330,10 +330,25 @@ def _trace(reloc, start, p1, p2, rng2, sense, scale, step, max_points, window, o
                 if h < step / 256.0:
                     return pts, f"lost at {p2} = {cur.values[p2]:.8g} ({exc})"
                 continue
+            # a point only bracketed, its interval wider than a hundredth of the step (the short
+            # branch met another point, or jumped): a shorter step first; accepted (with its honest
+            # interval) only when the step is down to a sixteenth
+            if (
+                found.status != LocateStatus.LOCATED
+                and not found.accuracy <= 0.01 * h * scale[across]
+                and h >= step / 16.0
+            ):
+                found = None
+                h *= 0.5
         miss = abs(found.values[across] - pred[across]) / scale[across]
         h_last = h
         v = found.values[p2]
         if not lo2 <= v <= hi2:
+            end = _at_the_end(reloc, cur, found, p1, p2, hi2 if v > hi2 else lo2, t, scale)
+            if end is not None:
+                pts.append(end)
+                if on_point is not None:
+                    on_point(end)
             return pts, f"left the range at {p2} = {v:.8g}"
         pts.append(found)
         if on_point is not None:
@@ -342,6 +357,33 @@ def _trace(reloc, start, p1, p2, rng2, sense, scale, step, max_points, window, o
         prev, cur = cur, found
         h = min(4.0 * step, 1.5 * h)
     return pts, f"reached max_points = {max_points}"
+
+
+def _at_the_end(reloc, cur: LocusPoint, found: LocusPoint, p1, p2, bound: float, t, scale):
+    """The locus's point at ``p2 = bound`` (the end of the range it just left between ``cur`` and
+    ``found``), located in ``p1``; None where that fails or the point is only bracketed."""
+    s = (bound - cur.values[p2]) / (found.values[p2] - cur.values[p2])
+    if not 0.0 < s < 1.0:
+        return None
+    guess = cur.values[p1] + s * (found.values[p1] - cur.values[p1])
+    w = max(abs(found.values[p1] - cur.values[p1]), 1e-6 * scale[p1])
+    # located twice, from windows of two sizes: the end point is not checked by its neighbours on
+    # the locus, so its interval is the union of the two (on the absorber's band edge at R = 0.55
+    # one window's interval missed the closed form by 3e-13)
+    ends = []
+    for grow in (1.0, 2.5):
+        try:
+            end = reloc(cur, p2, float(bound), p1, guess, grow * w, t, scale[p1])
+        except (_Lost, HybridError, ArithmeticError, RuntimeError, ValueError):
+            return None
+        if end.status != LocateStatus.LOCATED:
+            return None
+        ends.append(end)
+    lo = min(e.interval[0] for e in ends)
+    hi = max(e.interval[1] for e in ends)
+    end = ends[0]
+    acc = max(end.values[p1] - lo, hi - end.values[p1])
+    return replace(end, interval=(lo, hi), accuracy=acc)
 
 
 # ----------------------------------------------------------------------------

@@ -43,10 +43,14 @@ def test_duffing_folds_located_to_1e8():
     )
     assert br.status == "completed", br.message
     folds = [s for s in br.special if s.kind == "fold"]
-    assert [f.status for f in folds] == ["located", "located"]
+    # the folds of the computed branch are found to 1e-13, but the runs' integration error (IDA,
+    # rtol 1e-8) moves them by up to 3.7e-10: the intervals say so (issue 23), wider than
+    # locate_tol, so the folds are bracketed, and hold the reference
+    assert [f.status for f in folds] == ["bracketed", "bracketed"]
     for s, W in zip(folds, (ref.band[1], ref.band[0]), strict=True):
         assert abs(s.parameter - W) <= 1e-8
         assert s.accuracy <= 1e-8
+        assert s.contains(W), (s, W)
         assert br.points[s.index].params["Omega"] == s.parameter
     # No orbit twice.
     assert len({id(o) for o in br.points}) == len(br.points)
