@@ -366,7 +366,10 @@ def _at_the_end(reloc, cur: LocusPoint, found: LocusPoint, p1, p2, bound: float,
     if not 0.0 < s < 1.0:
         return None
     guess = cur.values[p1] + s * (found.values[p1] - cur.values[p1])
-    w = max(abs(found.values[p1] - cur.values[p1]), 1e-6 * scale[p1])
+    # (not narrower than 1e-4 of the first parameter's scale: on a locus nearly parallel to the
+    # second parameter's axis the step moves the first by ~1e-13, and a branch over so short a
+    # window located the isolator's band edge at c3 = 300 1.7e-13 off, outside its interval)
+    w = max(abs(found.values[p1] - cur.values[p1]), 1e-4 * scale[p1])
     # located twice, from windows of two sizes: the end point is not checked by its neighbours on
     # the locus, so its interval is the union of the two (on the absorber's band edge at R = 0.55
     # one window's interval missed the closed form by 3e-13)

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.status import SPECIAL_KINDS, LocateStatus
+from ..orbits.newton import NewtonMap
 
 __all__ = [
     "SpecialPoint",
@@ -608,8 +609,6 @@ def fold_integration_error(c, pt) -> float:
     sh = getattr(c, "sh", None)
     if sh is None or sh.integrator.exact or not hasattr(c, "rerun") or not hasattr(c, "jacobian"):
         return 0.0
-    from ..orbits.newton import NewtonMap
-
     try:
         if c.rerun(pt) is None:  # (makes the tighter map, c.tight)
             return math.inf

@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from .cont import _STYLE, _runs
 from .trajectory import _new_figure
@@ -32,7 +33,7 @@ _COLOUR = {
 }
 
 
-def locus_figure(loci: list, branches: list, coord: str | None = None):
+def locus_figure(loci: list, branches: list, coord: str | None = None) -> Figure:
     """The figure (see the module docstring): ``loci`` (:class:`hybrid.Locus`) over ``branches``
     (the :class:`hybrid.Branch` objects they came from, drawn once each)."""
     fig = _new_figure((8.0, 8.0))
@@ -77,7 +78,6 @@ def locus_figure(loci: list, branches: list, coord: str | None = None):
         ax_p.legend(loc="best", fontsize=8)
     ax_b.grid(alpha=0.3)
     ax_p.grid(alpha=0.3)
-    fig.tight_layout()
     return fig
 
 
