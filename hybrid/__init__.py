@@ -15,7 +15,11 @@ from .continuation.forced import SpecialPoint as SpecialPoint
 from .continuation.forced import continue_orbits as continue_orbits
 from .continuation.frc import FrequencyResponse as FrequencyResponse
 from .continuation.frc import frequency_response as frequency_response
+from .continuation.locus import Locus as Locus
+from .continuation.locus import LocusPoint as LocusPoint
+from .continuation.locus import continue_locus as continue_locus
 from .continuation.periodic import periodic_orbit as periodic_orbit
+from .continuation.switching import switch_branch as switch_branch
 from .core.budget import time_limit as time_limit
 from .core.errors import AlgebraicSolveError as AlgebraicSolveError
 from .core.errors import BudgetExceeded as BudgetExceeded
@@ -39,7 +43,9 @@ from .core.options import NewtonOptions as NewtonOptions
 from .core.options import ShootingOptions as ShootingOptions
 from .core.options import SolverOptions as SolverOptions
 from .core.progress import ProgressBar as ProgressBar
+from .core.status import SPECIAL_KINDS as SPECIAL_KINDS
 from .core.status import BranchStatus as BranchStatus
+from .core.status import LocateStatus as LocateStatus
 from .core.status import PointStatus as PointStatus
 from .core.status import ResponseStatus as ResponseStatus
 from .core.status import SolveStatus as SolveStatus
@@ -90,6 +96,7 @@ __all__ = [
     "BranchStatus",
     "BudgetExceeded",
     "ContinuationOptions",
+    "continue_locus",
     "continue_orbits",
     "ConvergenceError",
     "Envelope",
@@ -117,6 +124,9 @@ __all__ = [
     "load_sweep",
     "load_system",
     "locate_hopf",
+    "LocateStatus",
+    "Locus",
+    "LocusPoint",
     "log_axis",
     "Mode",
     "model_hash",
@@ -142,10 +152,12 @@ __all__ = [
     "Sink",
     "SolverOptions",
     "SolveStatus",
+    "SPECIAL_KINDS",
     "SpecialPoint",
     "Status",
     "sweep",
     "SweepResult",
+    "switch_branch",
     "system_from_dict",
     "Tee",
     "time_limit",

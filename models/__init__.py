@@ -22,6 +22,7 @@ __all__ = [
     "isolator",
     "coulomb",
     "coulomb_sign",
+    "friction_oscillator",
     "belt",
     "belt_stribeck",
     "belt_damper",
@@ -57,6 +58,12 @@ def coulomb() -> HybridSystem:
 def coulomb_sign() -> HybridSystem:
     """The Coulomb oscillator written as one equation with ``sign(v)`` (Filippov); presets as ``coulomb``."""
     return _load("coulomb_sign")
+
+
+def friction_oscillator() -> HybridSystem:
+    """1-DOF oscillator with viscous damping, Coulomb friction and stiction; presets ``denhartog``
+    (Den Hartog 1931, the default), ``shaw`` (Shaw 1986: static friction above kinetic, no damping)."""
+    return _load("friction_oscillator")
 
 
 def belt_sign() -> HybridSystem:
@@ -103,6 +110,7 @@ BUILTIN = {
     "isolator": isolator,
     "coulomb": coulomb,
     "coulomb_sign": coulomb_sign,
+    "friction_oscillator": friction_oscillator,
     "belt_sign": belt_sign,
     "belt": belt,
     "belt_stribeck": belt_stribeck,

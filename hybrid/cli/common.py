@@ -20,6 +20,7 @@ from pathlib import Path
 from ..core.errors import InputError, OutputError
 from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text
 from ..core.options import INTEGRATORS, SolverOptions
+from ..engine.simulate import initial_state
 from ..integrators.registry import integrator
 from ..model.plot_hints import plot_hints
 from ..model.registry import builtin_models, is_model_file, resolve_model
@@ -63,6 +64,34 @@ def model(name: str) -> HybridSystem:
             f"a path, ./{name}, to use it)"
         )
     return system
+
+
+def add_guess_args(p: argparse.ArgumentParser) -> None:
+    """``--x0 NAME=VALUE`` (repeatable) and ``--mode0``: the start of a periodic orbit's search."""
+    p.add_argument(
+        "--x0", action="append", metavar="NAME=VALUE", help="initial guess of a variable (default 0)"
+    )
+    p.add_argument("--mode0", help="mode of the guess (default: the model's initial mode)")
+
+
+def guess(system: HybridSystem, args) -> tuple[dict[str, float], str]:
+    """The guess of ``--x0`` (every other variable 0) and its mode ``--mode0``, checked.
+
+    Raises
+    ------
+    UsageError
+        The model declares no initial mode and ``--mode0`` is not given.
+    hybrid.core.errors.ModelError, hybrid.core.errors.InputError
+        An unknown mode, an unknown variable or a value that is not finite.
+    """
+    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
+    system.mode(mode0)  # unknown mode -> ModelError
+    x0 = {n: 0.0 for n in system.variable_names}
+    x0.update(pairs(args.x0, "--x0"))
+    initial_state(system, x0, mode0)  # unknown or non-finite values -> ValueError
+    return x0, mode0
 
 
 def choose_preset(system: HybridSystem, preset: str | None) -> str | None:

@@ -7,8 +7,9 @@ What it computes, in order:
    their stability, and every loss of stability located (a Hopf point for a complex pair);
 2. from each Hopf point, the branch of periodic orbits born there, followed until it leaves the
    range or meets a switch (a grazing);
-3. the periodic orbit at the preset's value of the parameter (from a transient), continued both
-   ways (e.g. the stick-slip cycle).
+3. the periodic orbit at the preset's value of the parameter (from a transient started at ``--x0``
+   in ``--mode0``, by default all zero in the model's initial mode), continued both ways (e.g. the
+   stick-slip cycle).
 
 It writes ``cont.csv`` (one row per point), ``cont.json`` (the special points, as
 :class:`hybrid.SpecialPoint` fields, and each branch's end: status, reason, range) and ``cont.png`` (amplitude and period against the parameter; stable solid, unstable dashed,
@@ -38,9 +39,11 @@ from ..orbits.autonomous import autonomous_orbit, time_scale
 from .common import (
     UsageError,
     add_budget,
+    add_guess_args,
     add_model_args,
     announce,
     budget_options,
+    guess,
     model,
     output_dir,
     parameters,
@@ -69,6 +72,7 @@ def register(subparsers) -> None:
     )
     add_model_args(p, omega=False)
     p.add_argument("--param", required=True, metavar="NAME", help="the parameter to continue")
+    add_guess_args(p)
     p.add_argument("--range", nargs=2, type=float, required=True, metavar=("A", "B"), help="its range")
     p.add_argument(
         "--coordinate",
@@ -141,6 +145,7 @@ def run(args) -> int:
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
         raise UsageError(f"--range must be two different finite numbers, got {args.range}")
     preset, params = parameters(system, args)
+    x0, mode0 = guess(system, args)
     system.parameter_values({**params, args.param: lo})  # a range outside the domain -> ValueError
     system.parameter_values({**params, args.param: hi})
     coord = args.coordinate or (list(system.plot.get("displacements", ())) or list(system.variable_names))[0]
@@ -183,6 +188,7 @@ def run(args) -> int:
                     summary,
                     eq_branches,
                     obranches,
+                    (x0, mode0),
                 )
         except (BudgetExceeded, KeyboardInterrupt) as exc:  # what was computed is written below
             stopped = exc
@@ -236,8 +242,11 @@ def run(args) -> int:
     return 0
 
 
-def _compute(system, params, args, lo, hi, options, settings, bar, rows, summary, eq_branches, obranches):
-    """The three phases (module docstring); results appended to ``rows``, ``summary``,
+def _compute(
+    system, params, args, lo, hi, options, settings, bar, rows, summary, eq_branches, obranches, start
+):
+    """The three phases (module docstring), the orbit's search from ``start`` (``(x0, mode0)``);
+    results appended to ``rows``, ``summary``,
     ``eq_branches`` and ``obranches`` as they come (an interrupt or a budget keeps them)."""
     grid = np.linspace(lo, hi, EQUILIBRIUM_POINTS)
     for j, mode in enumerate(m.name for m in system.modes):
@@ -278,7 +287,7 @@ def _compute(system, params, args, lo, hi, options, settings, bar, rows, summary
                     ("hopf", hopf_branch(eq, args.param, (lo, hi), options=options, settings=settings))
                 )
     bar(0.5)
-    orbit = autonomous_orbit(system, params, options=options)
+    orbit = autonomous_orbit(system, params, *start, options=options)
     summary["orbit_at_preset"] = {"converged": orbit.converged, "message": orbit.message}
     if orbit.converged and lo <= params[args.param] <= hi:
         for k, direction in enumerate((1, -1)):

@@ -15,7 +15,8 @@ from importlib.metadata import entry_points
 import numpy as np
 
 from ..continuation.branch import forcing_parameter, orbit_row
-from ..continuation.frc import default_range, frequency_response
+from ..continuation.frc import Piece, default_range, frequency_response
+from ..continuation.switching import SWITCHABLE, switch_branch
 from ..core.budget import time_limit
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
@@ -69,6 +70,16 @@ def register(sub) -> None:
         "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     add_tolerances(p)
+    p.add_argument(
+        "--switch",
+        type=int,
+        action="append",
+        default=None,
+        metavar="N",
+        help="switch branches at special point N (its row in frc_special.csv, from 0, as printed): at a "
+        "branch-point follow the crossing branch both ways, at a period-doubling the branch of twice the "
+        "period (hybrid.switch_branch); the new branches are added to the curve (repeatable)",
+    )
     p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -149,6 +160,53 @@ def frc_text(fr, preset: str | None) -> str:
     for a, b in fr.gaps:
         lines.append(f"  GAP: no periodic orbit computed for {par} in ({a:.8g}, {b:.8g})")
     return "\n".join(lines)
+
+
+def _switch(fr, rows: list[int], p_range, options: SolverOptions, on_point) -> list[dict]:
+    """Switch branches at the special points of rows ``rows`` (of :meth:`FrequencyResponse.special_rows`):
+    the new branches are added to ``fr`` as one more piece over the range (their orbits passed to
+    ``on_point`` with their branch indices); returns what was done, per row."""
+    index = [(k, j) for k, b in enumerate(fr.branches) for j in range(len(b.special))]
+    for n in rows:
+        if not 0 <= n < len(index):
+            raise UsageError(
+                f"--switch {n}: the curve has {len(index)} special points (rows 0 to {len(index) - 1})"
+            )
+        k, j = index[n]
+        kind = fr.branches[k].special[j].kind
+        if kind not in SWITCHABLE["forced-orbits"]:
+            ok = [
+                str(m)
+                for m, (a, b) in enumerate(index)
+                if fr.branches[a].special[b].kind in SWITCHABLE["forced-orbits"]
+            ]
+            raise UsageError(
+                f"--switch {n}: special point {n} is a {kind}; branches are switched at a branch-point or a "
+                f"period-doubling (rows: {', '.join(ok) or 'none'})"
+            )
+    out = []
+    piece = Piece(p_range[0], p_range[1], None)
+    for n in rows:
+        k, j = index[n]
+        first = len(fr.branches)
+        new = switch_branch(fr.branches[k], j, p_range, options=options)
+        piece.branches.extend(new)
+        if piece not in fr.pieces:
+            fr.pieces.append(piece)
+        for m, b in enumerate(new):
+            for o in b.points:
+                on_point(first + m, o)
+        info(
+            f"switched at special point {n} ({fr.branches[k].special[j].kind}): branches {first} to {first + len(new) - 1}"
+        )
+        out.append(
+            {
+                "row": n,
+                "kind": fr.branches[k].special[j].kind,
+                "branches": list(range(first, first + len(new))),
+            }
+        )
+    return out
 
 
 def import_in_background(module: str) -> Callable[[], None]:
@@ -267,6 +325,7 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
                 # matplotlib is imported (0.4 s) while the workers compute
                 while_computing=None if args.no_plot else import_in_background("hybrid.plot.frc"),
             )
+            switched = _switch(fr, args.switch, (lo, hi), options, on_point) if args.switch else []
     except KeyboardInterrupt as exc:
         info(
             f"hybrid: interrupted{_signal_name(exc)} after {time.perf_counter() - t0:.1f} s: "
@@ -330,6 +389,7 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
         ],
         "special": special,
         "gaps": [list(g) for g in fr.gaps],
+        "switched": switched,
         "complete": fr.status == ResponseStatus.COMPLETE,
         "overlays": list(overlays),
         "wall_time_s": wall,

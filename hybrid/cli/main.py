@@ -1,4 +1,4 @@
-"""The ``hybrid`` command: ``hybrid models|show|simulate|orbit|frc|cont|sweep|chart ...``.
+"""The ``hybrid`` command: ``hybrid models|show|simulate|orbit|frc|cont|locus|sweep|chart ...``.
 
 Models are found by name among the installed ``hybrid.models`` entry points
 (the project's built-ins: absorber, isolator, coulomb, ...) or given as the path of
@@ -31,7 +31,7 @@ from importlib.metadata import entry_points
 from ..core.errors import BudgetExceeded, ModelError, OutputError, SimulationError, WorkerError
 from ..core.files import os_error_text
 from ..core.workers import Terminated, signals_as_interrupts
-from . import cont, frc, orbit, show, simulate, sweep
+from . import cont, frc, locus, orbit, show, simulate, sweep
 from .common import GuardedStream, StreamClosed, UsageError
 
 __all__ = ["main", "build_parser"]
@@ -39,7 +39,7 @@ __all__ = ["main", "build_parser"]
 #: Entry points adding subcommands: ``name = "package.module:register"``, ``register(subparsers)``.
 COMMAND_GROUP = "hybrid.commands"
 #: The subcommands of this package, in the order of ``hybrid --help``.
-BUILTIN = (simulate, orbit, frc, show, sweep, cont)
+BUILTIN = (simulate, orbit, frc, show, sweep, cont, locus)
 
 
 def build_parser() -> argparse.ArgumentParser:

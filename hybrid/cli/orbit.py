@@ -10,22 +10,21 @@ from ..continuation.periodic import periodic_orbit
 from ..core.budget import time_limit
 from ..core.options import ShootingOptions, SolverOptions
 from ..engine.io import to_json, write_trajectory_csv
-from ..engine.simulate import initial_state
 from ..orbits.orbit import PeriodicOrbit
 from .common import (
     OUT_HELP,
-    UsageError,
     add_budget,
+    add_guess_args,
     add_model_args,
     add_tolerances,
     announce,
     budget_options,
     check_integrator,
+    guess,
     info,
     model,
     nonnegative_int,
     output_dir,
-    pairs,
     parameters,
     positive_int,
     results,
@@ -41,10 +40,7 @@ def register(sub) -> None:
     """Add this subcommand to the subparsers of ``hybrid``."""
     p = sub.add_parser("orbit", help="periodic orbit at one forcing frequency, with its Floquet multipliers")
     add_model_args(p)
-    p.add_argument(
-        "--x0", action="append", metavar="NAME=VALUE", help="initial guess of a variable (default 0)"
-    )
-    p.add_argument("--mode0", help="mode of the guess (default: the model's initial mode)")
+    add_guess_args(p)
     p.add_argument(
         "--transient",
         type=nonnegative_int,
@@ -116,13 +112,7 @@ def cmd_orbit(args) -> int:
     system = model(args.model)
     spp = samples_per_period(args)
     preset, params = parameters(system, args)
-    mode0 = args.mode0 if args.mode0 is not None else system.default_mode
-    if mode0 is None:
-        raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
-    system.mode(mode0)  # unknown mode -> ModelError
-    guess = {n: 0.0 for n in system.variable_names}
-    guess.update(pairs(args.x0, "--x0"))
-    initial_state(system, guess, mode0)  # unknown or non-finite values -> ValueError
+    x0, mode0 = guess(system, args)
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
@@ -133,7 +123,7 @@ def cmd_orbit(args) -> int:
             orbit = periodic_orbit(
                 system,
                 params,
-                guess,
+                x0,
                 mode0,
                 options=options,
                 settings=ShootingOptions(transient_periods=args.transient, samples_per_period=spp),

@@ -118,6 +118,8 @@ class Run:
         # symmetric chain of contacts sticks all at once), a few times each.
         self.max_chain = options.max_chain * (1 + len(cs.system.components))
         self.with_outputs = with_outputs  # evaluate the outputs (samples, start and final values)
+        quad = set(cs.system.quadratures)  # the variables that are not quadratures (for noise)
+        self.dynamic = np.array([i for i, n in enumerate(cs.names) if n not in quad], dtype=int)
 
     # ------------------------------------------------------------------
     def solver(self, mode: int, careful: bool = False) -> FlowSolver:
@@ -142,9 +144,9 @@ class Run:
         return self.opt.guard_noise * fn(t, y, scale) + 1e-14
 
     def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
-        grad, _ = cm.guard_gradient(k, t, y)
-        scale = self.atol + self.opt.rtol * np.abs(y)
-        return self.opt.guard_noise * float(np.abs(grad) @ scale) + 1e-14
+        grad, ht = cm.guard_gradient(k, t, y)
+        size = float(np.max(np.abs(y[self.dynamic]))) if self.dynamic.size else 0.0
+        return self.integ.guard_noise(self.opt, self.atol, grad, ht, t, y, size)
 
     def record(self, t: float, y: np.ndarray, mode: int) -> None:
         # completed switches go to the recorder first: no switch is pending while a sample is taken
@@ -587,6 +589,11 @@ class Run:
             # The guard started at zero (disarmed) and went to its safe side before crossing back
             # within the step (a long step of the exact flow): bisect from the last point on that side.
             inner = [tau for tau in np.linspace(t_prev, r.t, 65)[1:-1] if h(tau) * h_end < 0]
+            if not inner:
+                # a dip too short for that grid (the exact flow's noise band is at rounding): look
+                # near the start, where it began
+                near = t_prev + (r.t - t_prev) * 2.0 ** -np.arange(60, 6, -1)
+                inner = [tau for tau in near if t_prev < tau and h(tau) * h_end < 0]
             if not inner:
                 return r
             lo = inner[-1]

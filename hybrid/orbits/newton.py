@@ -434,7 +434,7 @@ def coarse_shooter(shooter: Shooter, tol: float) -> Shooter | None:
     f = rc / o.rtol
     atol = {k: v * f for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol * f
     opts = replace(o, rtol=rc, atol=atol, atol_default=o.atol_default * f)
-    return Shooter(shooter.system, shooter.params, opts, shooter.free)
+    return Shooter(shooter.system, shooter.params, opts, shooter.free, shooter.periods)
 
 
 def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int, max_iter: int) -> bool:

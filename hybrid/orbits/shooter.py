@@ -39,6 +39,9 @@ class Shooter:
     options : SolverOptions
     free : str, optional
         A parameter to differentiate the map by (for continuation).
+    periods : int
+        Forcing periods the map spans (2: the map of orbits of twice the forcing period, e.g. the
+        branch born at a period doubling).
 
     Attributes
     ----------
@@ -52,9 +55,11 @@ class Shooter:
         params: Mapping[str, float],
         options: SolverOptions,
         free: str | None = None,
+        periods: int = 1,
     ):
         self.system = system
         self.options = options
+        self.periods = int(periods)
         self.integrator = integrator(options.integrator)
         self.free = free
         self.names = system.variable_names
@@ -87,11 +92,11 @@ class Shooter:
             cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
         else:
             self.cs = self._compiled()
-        self.period = self.cs.period
-        if self.period is None:
+        if self.cs.period is None:
             raise ModelError(
                 f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
             )
+        self.period = self.periods * self.cs.period
         if self.free is not None:
             self.ext_values = np.array([self.params[self.free]])
         else:
@@ -119,7 +124,9 @@ class Shooter:
 
     def dT(self) -> float:
         """d(period)/d(free parameter)."""
-        return float(compile_scalar(self._dT, {}, self.params)(())) if self._dT is not None else 0.0
+        if self._dT is None:
+            return 0.0
+        return self.periods * float(compile_scalar(self._dT, {}, self.params)(()))
 
     # ------------------------------------------------------------------
     def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
