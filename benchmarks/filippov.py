@@ -62,7 +62,7 @@ def coulomb_study(options, label):
                 print(f"  {label}: Omega {W}, R/F {ratio}: converged {oa.converged} / {ob.converged}")
                 continue
             n += 1
-            n_stick += ob.mode_fractions.get("motion_0", 0.0) > 0
+            n_stick += ob.mode_fractions.get("motion|slide", 0.0) > 0
             times_a.append(np.median(ta))
             times_b.append(np.median(tb))
             e = abs(ob.amplitude["x"] / oa.amplitude["x"] - 1)
@@ -75,7 +75,7 @@ def coulomb_study(options, label):
             X = ob.amplitude["x"]
             # Den Hartog's non-stop motion: no stick phase, and a unique orbit (at W = 1/2, 1/4, ...
             # a free oscillation fits the period: a family, multiplier 1, outside the closed form).
-            if ob.mode_fractions.get("motion_0", 0.0) == 0.0 and X * r * r > p["R"] and not ob.family:
+            if ob.mode_fractions.get("motion|slide", 0.0) == 0.0 and X * r * r > p["R"] and not ob.family:
                 n_dh += 1
                 e = abs(X / den_hartog(1.0, 1.0, p["R"], 0.5, W) - 1)
                 if e > d_dh:
@@ -112,14 +112,14 @@ def belt_study(options, label):
         d_exit = d_x = 0.0
         n_stick = 0
         for i, e in enumerate(eb):
-            if e.target != "motion_0":
+            if e.target != "motion|slide":
                 continue
             n_stick += 1
             x0, t0 = e.x_plus[0], e.t
             t_exit = t0 + ((F - c * vb) / k - x0) / vb
             if i + 1 < len(eb):
                 d_exit = max(d_exit, abs(eb[i + 1].t - t_exit))
-            inside = (tb.mode == "motion_0") & (tb.t > t0) & (tb.t < t_exit)
+            inside = (tb.mode == "motion|slide") & (tb.t > t0) & (tb.t < t_exit)
             if inside.any():
                 d_x = max(d_x, float(np.max(np.abs(tb["x"][inside] - x0 - vb * (tb.t[inside] - t0)))))
         print(

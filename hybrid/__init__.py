@@ -15,12 +15,17 @@ from .continuation.forced import SpecialPoint as SpecialPoint
 from .continuation.forced import continue_orbits as continue_orbits
 from .continuation.frc import FrequencyResponse as FrequencyResponse
 from .continuation.frc import frequency_response as frequency_response
+from .continuation.locus import Locus as Locus
+from .continuation.locus import LocusPoint as LocusPoint
+from .continuation.locus import continue_locus as continue_locus
 from .continuation.periodic import periodic_orbit as periodic_orbit
+from .continuation.switching import switch_branch as switch_branch
 from .core.budget import time_limit as time_limit
 from .core.errors import AlgebraicSolveError as AlgebraicSolveError
 from .core.errors import BudgetExceeded as BudgetExceeded
 from .core.errors import ConvergenceError as ConvergenceError
 from .core.errors import ExpressionError as ExpressionError
+from .core.errors import FolderInUse as FolderInUse
 from .core.errors import GrazingSwitchError as GrazingSwitchError
 from .core.errors import HybridError as HybridError
 from .core.errors import InputError as InputError
@@ -28,6 +33,7 @@ from .core.errors import InputTypeError as InputTypeError
 from .core.errors import IntegratorError as IntegratorError
 from .core.errors import ModelError as ModelError
 from .core.errors import NotAffineError as NotAffineError
+from .core.errors import OutputError as OutputError
 from .core.errors import ParameterOutOfDomain as ParameterOutOfDomain
 from .core.errors import SampleCapReached as SampleCapReached
 from .core.errors import SimulationError as SimulationError
@@ -37,7 +43,9 @@ from .core.options import NewtonOptions as NewtonOptions
 from .core.options import ShootingOptions as ShootingOptions
 from .core.options import SolverOptions as SolverOptions
 from .core.progress import ProgressBar as ProgressBar
+from .core.status import SPECIAL_KINDS as SPECIAL_KINDS
 from .core.status import BranchStatus as BranchStatus
+from .core.status import LocateStatus as LocateStatus
 from .core.status import PointStatus as PointStatus
 from .core.status import ResponseStatus as ResponseStatus
 from .core.status import SolveStatus as SolveStatus
@@ -52,6 +60,7 @@ from .engine.simulate import simulate as simulate
 from .engine.trajectory import Status as Status
 from .engine.trajectory import Trajectory as Trajectory
 from .engine.trajectory import TransitionRecord as TransitionRecord
+from .model.elements import Component as Component
 from .model.elements import Mode as Mode
 from .model.elements import Parameter as Parameter
 from .model.elements import Transition as Transition
@@ -79,6 +88,7 @@ from .studies.sweep import model_hash as model_hash
 from .studies.sweep import sweep as sweep
 
 __all__ = [
+    "Component",
     "AlgebraicSolveError",
     "autonomous_orbit",
     "Axis",
@@ -86,6 +96,7 @@ __all__ = [
     "BranchStatus",
     "BudgetExceeded",
     "ContinuationOptions",
+    "continue_locus",
     "continue_orbits",
     "ConvergenceError",
     "Envelope",
@@ -97,6 +108,7 @@ __all__ = [
     "filippov_system",
     "forcing_parameter",
     "frequency_response",
+    "FolderInUse",
     "FrequencyResponse",
     "FUNCTIONS",
     "GrazingSwitchError",
@@ -112,6 +124,9 @@ __all__ = [
     "load_sweep",
     "load_system",
     "locate_hopf",
+    "LocateStatus",
+    "Locus",
+    "LocusPoint",
     "log_axis",
     "Mode",
     "model_hash",
@@ -120,6 +135,7 @@ __all__ = [
     "NotAffineError",
     "orbit_branch",
     "ORBIT_OPTIONS",
+    "OutputError",
     "Parameter",
     "ParameterOutOfDomain",
     "periodic_orbit",
@@ -136,10 +152,12 @@ __all__ = [
     "Sink",
     "SolverOptions",
     "SolveStatus",
+    "SPECIAL_KINDS",
     "SpecialPoint",
     "Status",
     "sweep",
     "SweepResult",
+    "switch_branch",
     "system_from_dict",
     "Tee",
     "time_limit",

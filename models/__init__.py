@@ -1,4 +1,5 @@
-"""Built-in models: the paper's two sequential friction-spring dampers [1]_, a Coulomb oscillator, and belts.
+"""Built-in models: the paper's two sequential friction-spring dampers [1]_, a Coulomb oscillator, belts,
+and three friction networks of many contacts (a Burridge-Knopoff chain, an Iwan joint, a bladed disk).
 
 Each model is a data file (``*.toml`` beside this module) read by
 :func:`hybrid.load_system`; the functions below return them, cached.
@@ -21,10 +22,14 @@ __all__ = [
     "isolator",
     "coulomb",
     "coulomb_sign",
+    "friction_oscillator",
     "belt",
     "belt_stribeck",
     "belt_damper",
     "belt_sign",
+    "bk_chain",
+    "iwan",
+    "bladed_disk",
     "BUILTIN",
 ]
 
@@ -55,6 +60,12 @@ def coulomb_sign() -> HybridSystem:
     return _load("coulomb_sign")
 
 
+def friction_oscillator() -> HybridSystem:
+    """1-DOF oscillator with viscous damping, Coulomb friction and stiction; presets ``denhartog``
+    (Den Hartog 1931, the default), ``shaw`` (Shaw 1986: static friction above kinetic, no damping)."""
+    return _load("friction_oscillator")
+
+
 def belt_sign() -> HybridSystem:
     """Mass on a moving belt written with ``sign(v - v_b)`` (Filippov); presets ``standard``, ``damped``."""
     return _load("belt_sign")
@@ -75,14 +86,36 @@ def belt_damper() -> HybridSystem:
     return _load("belt_damper")
 
 
+def bk_chain() -> HybridSystem:
+    """Burridge-Knopoff chain of 20 blocks on friction contacts, all forced (network file, one cell
+    repeated); preset ``standard`` (the chain of the Siconos benchmark)."""
+    return _load("bk_chain")
+
+
+def iwan() -> HybridSystem:
+    """Iwan joint: a mass on 50 Jenkins elements with slip forces spread uniformly (network file, one
+    cell repeated); preset ``standard``."""
+    return _load("iwan")
+
+
+def bladed_disk() -> HybridSystem:
+    """Bladed disk: a ring of 24 blades with friction dampers between neighbours, forced by a
+    travelling wave (network file, one cell repeated); presets ``tuned``, ``mistuned``."""
+    return _load("bladed_disk")
+
+
 #: Built-in model factories by name.
 BUILTIN = {
     "absorber": absorber,
     "isolator": isolator,
     "coulomb": coulomb,
     "coulomb_sign": coulomb_sign,
+    "friction_oscillator": friction_oscillator,
     "belt_sign": belt_sign,
     "belt": belt,
     "belt_stribeck": belt_stribeck,
     "belt_damper": belt_damper,
+    "bk_chain": bk_chain,
+    "iwan": iwan,
+    "bladed_disk": bladed_disk,
 }

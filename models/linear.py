@@ -256,3 +256,48 @@ def slip_eigenfrequencies(model: str, params: dict[str, float]) -> tuple[float, 
     if model == "absorber":
         return _two_mass_eigenfrequencies(m1, m2, c1, c2 * c3 / (c2 + c3))
     return _two_mass_eigenfrequencies(m1, m2, c1 * c3 / (c1 + c3), c2)
+
+
+def band_edges(model: str, params: dict[str, float], lo: float, hi: float) -> tuple[float, float]:
+    """The two ends [rad/s] of the stick-slip band around the stick eigenfrequency inside ``(lo, hi)``.
+
+    The centred stick orbit (offset 0) slips where its amplitude of ``x1`` reaches the structural-
+    change limit: ``|A1(Omega)| = A_L(Omega)`` (Eqs. (A.1)-(A.2) against Eq. (5) or (9)); one
+    crossing below the eigenfrequency, one above (brentq to rounding).
+
+    Parameters
+    ----------
+    model : str
+        ``"absorber"`` or ``"isolator"``.
+    params : dict[str, float]
+        Damper parameters.
+    lo, hi : float
+        A window [rad/s] holding one stick eigenfrequency and both ends of its band.
+
+    Returns
+    -------
+    (float, float)
+        The band's lower and upper end [rad/s].
+
+    Raises
+    ------
+    ValueError
+        No stick eigenfrequency in the window, or no crossing on one side of it.
+    """
+    from scipy.optimize import brentq
+
+    check_model(model)
+    check_params(params)
+
+    def f(w: float) -> float:
+        return abs(float(stick_amplitudes(params, w)[0])) - float(limit_amplitude(model, params, w))
+
+    inside = [w for w in stick_eigenfrequencies(params) if lo < w < hi]
+    if not inside:
+        raise ValueError(f"no stick eigenfrequency in ({lo!r}, {hi!r})")
+    w_res = inside[0]
+    eps = 1e-9 * w_res
+    return (
+        brentq(f, lo, w_res - eps, xtol=1e-16, rtol=8.9e-16, maxiter=300),
+        brentq(f, w_res + eps, hi, xtol=1e-16, rtol=8.9e-16, maxiter=300),
+    )

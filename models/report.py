@@ -11,6 +11,8 @@ import math
 import os
 from pathlib import Path
 
+from hybrid.core.files import write_atomic
+
 __all__ = ["write_report", "number_table", "read_notes", "regenerate", "NOTES"]
 
 #: The notes written by hand for the committed report, relative to a checkout's root.
@@ -223,6 +225,11 @@ def write_report(
         f"- wall time: **{meta['total_wall_seconds']:.1f} s** in total ({meta['compute_wall_seconds']:.1f} s of "
         f"computation, {meta['jobs']} jobs)",
         f"- load average (1, 5, 15 min, `os.getloadavg()`): {la0} at the start, {la1} at the end",
+        *(
+            [f"- **not made**: {', '.join(meta['not_made'])} ({meta['stopped']})"]
+            if meta.get("not_made")
+            else []
+        ),
         "",
         "| figure | integrator | jobs | compute [s] (sum over its jobs) | largest exact-vs-IDA peak difference | verdict |",
         "|---|---|---|---|---|---|",
@@ -281,8 +288,7 @@ def write_report(
                         f"| {c['what']} | {c['exact']:.10g} | {c['ida']:.10g} | {ida['max_relative_difference']:.2e} |"
                     )
         lines += ["", f"Compute time {f['compute_seconds']:.1f} s over {f['jobs']} jobs.", ""]
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    return write_atomic(path, "\n".join(lines) + "\n")
 
 
 def regenerate(out: Path, report: Path, notes: Path | None = None) -> Path:

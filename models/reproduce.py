@@ -12,6 +12,11 @@ otherwise (``--out``, ``--report``). ``--docs`` regenerates the committed report
 notes written by hand in ``docs/reproduction_notes.md`` merged in; no run writes that file. The
 report lists every figure whose JSON is in the folder, so regenerating one figure keeps the others.
 
+The output folder is locked for the run and the files are renamed into place at its end
+(:func:`hybrid.cli.common.results`); the worker processes die with this one. Ctrl-C, ``SIGTERM``
+or ``--max-time`` stop the computation at once: the figures whose jobs had all finished are
+written, with the report (which names the others), and the command exits with 130 (143) or 1.
+
 References
 ----------
 .. [1] Aramendiz et al., "Sequential friction-spring dampers" (``shared/seed``).
@@ -24,11 +29,15 @@ import os
 import platform
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
+from contextlib import nullcontext
 from pathlib import Path
 
 from hybrid import ProgressBar
-from hybrid.cli.common import writable_folder
+from hybrid.cli.common import info, positive_float, results, writable_folder
+from hybrid.core.budget import deadline_passed, time_limit
+from hybrid.core.files import check_target, os_error_text
+from hybrid.core.workers import ProcessPool, Terminated, cap_workers
 from hybrid.engine.io import to_json  # one JSON convention (non-finite floats as null) for every output
 
 __all__ = ["register", "run", "parse_figures", "parse_workers", "output_folder", "write_csv", "targets"]
@@ -78,6 +87,13 @@ def register(subparsers) -> None:
         default=None,
         metavar="MD",
         help=f"notes written by hand to merge into the report (default with --docs: {NOTES}; read, never written)",
+    )
+    p.add_argument(
+        "--max-time",
+        type=positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="wall-clock limit of the computation (default none): the figures finished by then are written",
     )
     p.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
@@ -154,16 +170,15 @@ def targets(args) -> tuple[Path, Path, Path | None]:
                 f"`--docs` regenerates the committed report and is run from the checkout's root, where {NOTES} "
                 f"is; not found under {Path.cwd()}"
             )
-        out, report = output_folder(str(DOCS_OUT)), DOCS_OUT.with_suffix(".md")
+        out = output_folder(str(DOCS_OUT))
+        report = _report_path(str(DOCS_OUT.with_suffix(".md")), out)
         notes = Path(args.notes) if args.notes else NOTES
     else:
         out = output_folder(args.out if args.out is not None else str(DEFAULT_OUT))
-        report = Path(args.report) if args.report else out.with_suffix(".md")
+        report = _report_path(args.report, out)
         notes = Path(args.notes) if args.notes else None
     if notes is not None and not notes.is_file():
         raise ValueError(f"`--notes {notes}`: no such file")
-    if report.exists() and report.is_dir():
-        raise ValueError(f"`--report {report}` is a folder")
     return out, report, notes
 
 
@@ -192,26 +207,35 @@ def _timed(job):
     return res, time.perf_counter() - t0
 
 
-def _run_all(jobs: list, workers: int, bar, done_weight: list, total_weight: float) -> dict:
-    """Results and wall seconds of each job, by job."""
-    results: dict = {}
+class _Stopped(Exception):
+    """The computation stopped before its last job (the deadline passed, or a job failed)."""
+
+
+def _run_all(jobs: list, pool: ProcessPool, bar, done_weight: list, total_weight: float, timed: dict) -> None:
+    """Run ``jobs`` on ``pool``; each result and its wall seconds put in ``timed`` as it comes.
+
+    Raises
+    ------
+    _Stopped
+        The deadline of :func:`hybrid.time_limit` passed, or a job failed (the jobs in progress are
+        the caller's to stop: it kills the pool).
+    """
     order = sorted(jobs, key=lambda j: -j.weight)  # long jobs first: a shorter tail
-    if workers == 1:
-        for j in order:
-            results[j] = _timed(j)
+    pending = {pool.submit(_timed, j): j for j in order}
+    while pending:
+        done, _ = wait(pending, timeout=0.25, return_when=FIRST_COMPLETED)
+        for f in done:
+            j = pending.pop(f)
+            try:
+                timed[j] = f.result()
+            except Exception as exc:  # a job that raised, or a worker that died
+                raise _Stopped(
+                    f"the {j.kind} job of `{j.model}` failed ({type(exc).__name__}: {exc})"
+                ) from None
             done_weight[0] += j.weight
             bar(done_weight[0] / total_weight)
-        return results
-    with ProcessPoolExecutor(max_workers=workers) as ex:
-        pending = {ex.submit(_timed, j): j for j in order}
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for f in done:
-                j = pending.pop(f)
-                results[j] = f.result()
-                done_weight[0] += j.weight
-                bar(done_weight[0] / total_weight)
-    return results
+        if pending and deadline_passed():
+            raise _Stopped(f"time limit of --max-time reached with {len(pending)} jobs not finished")
 
 
 def write_csv(rows: list[dict], path: Path) -> Path:
@@ -239,45 +263,102 @@ def write_csv(rows: list[dict], path: Path) -> Path:
     return path
 
 
+def _report_path(text: str | None, out: Path) -> Path:
+    """``--report`` (default OUT.md beside the folder), checked writable before any computation.
+
+    Raises
+    ------
+    ValueError
+    """
+    report = Path(text) if text else out.with_suffix(".md")
+    if report.exists() and report.is_dir():
+        raise ValueError(f"`--report {report}` is a folder")
+    check_target(report)
+    parent = report.parent if str(report.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(
+            f"`--report {report}`: its folder {str(parent)!r} does not exist; create it or choose another"
+        )
+    probe = parent / f".{report.name}.{os.getpid()}.probe"
+    try:
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise ValueError(os_error_text(exc, report, "choose another --report")) from None
+    return report
+
+
+def _files(ids: list[str]) -> list[str]:
+    return [f"fig{i}.{ext}" for i in ids for ext in ("png", "csv", "json")] + ["reproduce.json"]
+
+
 def run(args) -> int:
     """The ``reproduce`` subcommand (see :func:`register`)."""
     ids = parse_figures(args.figure)
-    workers = parse_workers(args.workers)
+    asked = None if args.workers is None else parse_workers(args.workers)
     out, report, notes_path = targets(args)
 
     from .figures import FIGURES
 
     specs = [FIGURES[i] for i in ids]
+    stage1 = list(dict.fromkeys(j for s in specs for j in s.jobs(args.integrator)))
+    workers, note = cap_workers(asked, len(stage1), "jobs")
+    if note:
+        info(note)
+    with results(out, _files(ids)) as staged:
+        return _reproduce(args, ids, specs, stage1, workers, out, report, staged, notes_path)
+
+
+def _reproduce(
+    args, ids, specs, stage1, workers: int, out: Path, report: Path, staged, notes_path: Path | None = None
+) -> int:
     load0 = os.getloadavg()
     t0 = time.perf_counter()
-    stage1 = list(dict.fromkeys(j for s in specs for j in s.jobs(args.integrator)))
     bar = ProgressBar("reproduce", enabled=args.progress)
     total = sum(j.weight for j in stage1) * 1.15 + 1e-9  # + the cross-checks, roughly
     done = [0.0]
-    timed = _run_all(stage1, workers, bar, done, total)
+    timed: dict = {}
+    stopped: BaseException | None = None
+    with ProcessPool(workers) as pool:
+        try:
+            with time_limit(args.max_time) if args.max_time else nullcontext():
+                _run_all(stage1, pool, bar, done, total, timed)
+                results = {j: r for j, (r, _) in timed.items()}
+                stage2 = list(dict.fromkeys(j for s in specs for j in s.checks(results, args.integrator)))
+                stage2 = [j for j in stage2 if j not in results]
+                total = max(total, done[0] + sum(j.weight for j in stage2))
+                _run_all(stage2, pool, bar, done, total, timed)
+        except (_Stopped, KeyboardInterrupt) as exc:
+            pool.kill()  # the jobs in progress are dropped at once
+            stopped = exc
     results = {j: r for j, (r, _) in timed.items()}
-    stage2 = list(dict.fromkeys(j for s in specs for j in s.checks(results, args.integrator)))
-    stage2 = [j for j in stage2 if j not in results]
-    total = max(total, done[0] + sum(j.weight for j in stage2))
-    timed.update(_run_all(stage2, workers, bar, done, total))
-    results = {j: r for j, (r, _) in timed.items()}
-    bar(1.0)
+    if stopped is None:
+        bar(1.0)
     compute_wall = time.perf_counter() - t0
     load1 = os.getloadavg()
 
     summary = []
+    not_made = []
     for s in specs:
+        own = list(s.jobs(args.integrator))
+        if not all(j in results for j in own) or not all(
+            j in results for j in s.checks(results, args.integrator)
+        ):
+            not_made.append(s.id)
+            continue
+        own = list(dict.fromkeys(own + s.checks(results, args.integrator)))
         tb = time.perf_counter()
         fig = s.build(results, args.integrator)
-        own = list(dict.fromkeys(s.jobs(args.integrator) + s.checks(results, args.integrator)))
         cpu = sum(timed[j][1] for j in own if j in timed)
-        stem = out / f"fig{fig.id}"
+        stem = staged.path(f"fig{fig.id}.png").with_suffix("")
+        shown = out / f"fig{fig.id}"
         fig.figure.savefig(stem.with_suffix(".png"), dpi=100)
         import matplotlib.pyplot as plt
 
         plt.close(fig.figure)
         write_csv(fig.rows, stem.with_suffix(".csv"))
-        info = {
+        info_ = {
             "figure": fig.id,
             "title": fig.title,
             "integrator": fig.integrator,
@@ -290,9 +371,9 @@ def run(args) -> int:
             "jobs": len(own),
             "load_average": list(load1),
         }
-        stem.with_suffix(".json").write_text(to_json(info) + "\n")
-        summary.append(info)
-        print(f"Fig. {fig.id}: {fig.verdict} [{stem.with_suffix('.png')}]")
+        stem.with_suffix(".json").write_text(to_json(info_) + "\n")
+        summary.append(info_)
+        print(f"Fig. {fig.id}: {fig.verdict} [{shown.with_suffix('.png')}]")
     total_wall = time.perf_counter() - t0
     meta = {
         "command": "hybrid " + " ".join(sys.argv[1:])
@@ -311,7 +392,10 @@ def run(args) -> int:
         "jobs": len(timed),
         "date_utc": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }
-    (out / "reproduce.json").write_text(to_json(meta) + "\n")
+    if stopped is not None:
+        why = str(stopped) if isinstance(stopped, _Stopped) else f"interrupted ({_what(stopped)})"
+        meta.update(stopped=why, not_made=[f"Fig. {i}" for i in not_made])
+    staged.path("reproduce.json").write_text(to_json(meta) + "\n")
     from .figures import FIGURES
     from .report import read_notes, write_report
 
@@ -320,5 +404,18 @@ def run(args) -> int:
         meta = {**meta, "notes": str(notes_path)}
     every = {f["figure"]: f for f in _earlier_figures(out, ids) + summary}
     write_report(report, out, meta, [every[k] for k in FIGURES if k in every], notes)
+    if isinstance(stopped, KeyboardInterrupt):
+        info(
+            f"hybrid: interrupted ({_what(stopped)}) after {total_wall:.1f} s: {len(summary)} of {len(ids)} figures "
+            f"written to {out}; report {report}"
+        )
+        return stopped.exit_code if isinstance(stopped, Terminated) else 130
+    if stopped is not None:
+        info(f"hybrid: {stopped}: {len(summary)} of {len(ids)} figures written to {out}; report {report}")
+        return 1
     print(f"{len(ids)} figures in {total_wall:.1f} s ({workers} workers); report {report}")
     return 0
+
+
+def _what(exc: KeyboardInterrupt) -> str:
+    return exc.name if isinstance(exc, Terminated) else "Ctrl-C"

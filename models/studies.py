@@ -580,3 +580,145 @@ def smallest_bounded_friction(
         else:
             lo = mid
     return {"R_unbounded": lo, "R_bounded": hi, "R_averaging": r_avg}
+
+
+@dataclass(frozen=True)
+class BoundedLimit:
+    """The smallest breakaway force with a bounded response at one resonance (:func:`bounded_response_limit`).
+
+    Attributes
+    ----------
+    model : str
+    mode : int
+        Resonance 1 or 2 (of the slipping system).
+    omega : float
+        The slip eigenfrequency [rad/s] where the response is followed in ``R``.
+    R_star : float
+        Where the branch of orbits at ``omega`` turns vertical [N]: the least ``R`` it reached, an
+        upper bound of ``R_min`` (a bounded orbit exists there).
+    R_lower : float
+        ``R_star - delta`` where a run from the last orbit grows without bound (NaN if not run):
+        a lower bound.
+    growth : (float, float)
+        The amplitude's growth per forcing period [m] of the runs at ``R_star - delta`` and
+        ``R_star + delta``.
+    R_averaging : float
+        ``R_min`` of the averaging model [N] (``breakaway_force(rho_min)``).
+    amplitude : float
+        Amplitude of ``x1`` of the last orbit of the branch [m].
+    points : int
+        Orbits of the branch.
+    wall_time : float
+        [s].
+    """
+
+    model: str
+    mode: int
+    omega: float
+    R_star: float
+    R_lower: float
+    growth: tuple
+    R_averaging: float
+    amplitude: float
+    points: int
+    wall_time: float
+
+
+def bounded_response_limit(
+    model: str,
+    mode: int,
+    params: dict | None = None,
+    integrator: str = "exact",
+    delta: float = 1e-5,
+    periods: int = 1500,
+) -> BoundedLimit:
+    """The smallest ``R`` [N] with a bounded response near resonance ``mode``, to ``delta``.
+
+    The periodic orbits at the slip eigenfrequency ``omega`` (:func:`slip_eigenfrequencies`) are
+    continued in ``R`` down from 1.5 x the averaging model's ``R_min``: the branch turns vertical,
+    its amplitude growing at a constant ``R = R_star`` (a family of orbits of every large amplitude:
+    the friction's work per cycle, like the forcing's, is then proportional to the amplitude), so
+    ``R_star`` bounds ``R_min`` from above. Runs of ``periods`` forcing periods from the last orbit
+    at ``R_star -+ delta``: if the amplitude grows at a steady rate below and not (or at most half
+    as fast) above, ``R_star - delta`` bounds it from below.
+
+    Parameters
+    ----------
+    model : str
+        ``"absorber"`` or ``"isolator"``.
+    mode : int
+        1 or 2.
+    params : dict, optional
+        Default the ``standard`` preset.
+    integrator : {"exact", "ida"}, optional
+    delta : float, optional
+        [N]; 0 skips the run.
+    periods : int, optional
+
+    Returns
+    -------
+    BoundedLimit
+    """
+    import time
+
+    t0 = time.perf_counter()
+    base = dict(study_params(model) if params is None else params)
+    system = BUILTIN[model]()
+    options = solver_options(integrator)
+    w = float(slip_eigenfrequencies(model, base)[mode - 1])
+    r_avg = breakaway_force(model, base, rho_min(model, base, mode))
+    start = 1.5 * r_avg
+    br = hybrid.continue_orbits(
+        system, {**base, "Omega": w, "R": start}, "R", (start, 0.2 * r_avg), options=options
+    )
+    R = br.values
+    k = int(np.argmin(R))
+    R_star, last = float(R[k]), br.points[k]
+    lower, growth = math.nan, (math.nan, math.nan)
+    if delta > 0:
+        rates = []
+        for R in (R_star - delta, R_star + delta):
+            rates.append(_growth(system, {**base, "Omega": w, "R": R}, last, periods, options))
+        (below, steady), (above, _) = rates
+        growth = (below, above)
+        # growing at R_star - delta, steadily (both halves of the run alike), and not (or at most half
+        # as fast) at R_star + delta: the response is unbounded below R_star - delta
+        if below > 0 and steady and above < 0.5 * below:
+            lower = R_star - delta
+    return BoundedLimit(
+        model,
+        mode,
+        w,
+        R_star,
+        lower,
+        growth,
+        r_avg,
+        float(last.amplitude["x1"]),
+        len(br.points),
+        time.perf_counter() - t0,
+    )
+
+
+def _growth(system, params: dict, orbit, periods: int, options) -> tuple[float, bool]:
+    """``(rate, steady)``: the growth of ``|x1|``'s peak per forcing period [m] over a run of
+    ``periods`` from ``orbit``'s section state (peaks over blocks of 20 periods, a line fitted to
+    the second half), and whether the first half grew at a rate within 30 % of it."""
+    T = 2 * math.pi / params["Omega"]
+    tr = hybrid.simulate(
+        system,
+        params,
+        (orbit.t0, orbit.t0 + periods * T),
+        dict(zip(system.variable_names, orbit.x0, strict=True)),
+        mode0=orbit.mode0,
+        options=options,
+        samples_per_period=20,
+        throw=False,
+    )
+    x1 = np.abs(np.asarray(tr["x1"]))
+    n = x1.size // (20 * 20)
+    peaks = x1[: n * 20 * 20].reshape(n, -1).max(axis=1)
+    t = 20.0 * np.arange(n)
+    h = n // 2
+    second = float(np.polyfit(t[h:], peaks[h:], 1)[0])
+    first = float(np.polyfit(t[:h], peaks[:h], 1)[0])
+    return second, bool(second > 0 and abs(first - second) <= 0.3 * second)

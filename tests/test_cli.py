@@ -131,7 +131,7 @@ def test_unknown_model(capsys):
     code, out, err = run(["simulate", "damper9000"], capsys)
     assert code == 2
     assert (
-        "unknown model `damper9000`; built-in models: absorber, belt, belt_damper, belt_sign, belt_stribeck, coulomb, coulomb_sign, isolator"
+        "unknown model `damper9000`; built-in models: absorber, belt, belt_damper, belt_sign, belt_stribeck, bk_chain, bladed_disk, coulomb, coulomb_sign, friction_oscillator, isolator, iwan"
         in err
     )
 

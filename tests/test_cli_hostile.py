@@ -99,7 +99,7 @@ def test_bad_out_is_refused_before_any_computation(command, tmp_path, capsys):
         ("/dev/null", "exists and is not a folder"),
         ("", "`--out` needs a folder path"),
         ("  ", "`--out` needs a folder path"),
-        (str(a_file / "sub"), "cannot be written"),
+        (str(a_file / "sub"), "Not a directory (ENOTDIR): a part of the path is a file"),
     ):
         code, stdout, err = run([*command, "--out", out], capsys)
         assert code == 2, (out, err)

@@ -16,21 +16,23 @@ def run(argv, capsys):
     return code, out.out, out.err
 
 
-def test_show_prints_the_network_and_the_modes_and_transitions_of_two_friction_elements(capsys):
+def test_show_prints_the_network_and_the_components_and_transitions_of_two_friction_elements(capsys):
     code, out, err = run(["show", str(MODEL_DIR / "absorber_two_friction.toml")], capsys)
     assert code == 0, err
     assert out.startswith("network `absorber_two_friction`")
     assert "u --]||[-- x2" in out
     assert "ground --]||[-- x1" in out
-    assert "7 variables, 9 modes, 24 transitions, initial mode stick_stick" in out
-    mode_rows = [
-        line.split() for line in out.splitlines() if line.startswith("  s") and "_" in line.split()[0]
-    ]
-    assert len({r[0] for r in mode_rows if len(r) >= 2 and r[1].endswith(",")}) == 9
-    assert any(
-        line.split()[:5] == ["G:stop-", "slip-_slip-", "slip-_stick", "rising", "w_G"]
-        for line in out.splitlines()
-    )
+    assert (
+        "10 variables, 1 own mode(s), 2 components (6 local modes, composed on demand), 8 transitions, "
+        "initial mode motion|stick|stick"
+    ) in out
+    rows = [line.split() for line in out.splitlines()]
+    assert ["motion", "x1,", "v1,", "x2,", "v2,", "W,", "D", "-"] in rows
+    assert ["H", "stick", "u", "vel_u,", "f_H"] in rows
+    assert ["H", "slip+", "-", "f_H,", "u,", "vel_u"] in rows
+    assert ["G", "slip-", "-", "f_G"] in rows
+    assert ["G.stop-", "slip-", "stick", "rising", "w_G", "v1", "=", "0"] in rows
+    assert ["H.breakaway+", "stick", "slip+", "rising", "f_H", "-", "R", "-"] in rows
 
 
 def test_show_a_built_in_mode_level_model(capsys):
@@ -55,7 +57,7 @@ def test_orbit_of_a_network_file_by_path(tmp_path, capsys):
     orbit = json.loads(out)
     assert orbit["model"] == "coulomb_network"
     assert orbit["converged"]
-    assert set(orbit["mode_sequence"]) == {"stick", "slip+", "slip-"}
+    assert set(orbit["mode_sequence"]) == {"motion|stick", "motion|slip+", "motion|slip-"}
 
 
 def test_a_bad_network_file_fails_in_one_line_naming_the_file_and_element(tmp_path, capsys):

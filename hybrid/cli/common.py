@@ -1,23 +1,29 @@
 """Helpers shared by the subcommands of ``hybrid``: arguments, parameters, output folders, messages.
 
 Bad input is reported in one line on stderr with exit code 2, before any integration
-(:class:`UsageError`, raised here and caught by :func:`hybrid.cli.main.main`).
+(:class:`UsageError`, raised here and caught by :func:`hybrid.cli.main.main`). An output folder is
+checked before any computation (:func:`writable_folder`) and written through
+:func:`results` (:class:`hybrid.core.files.OutputFiles`: locked for the run, files renamed into
+place at its end).
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from ..core.errors import InputError
+from ..core.errors import InputError, OutputError
+from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text
 from ..core.options import INTEGRATORS, SolverOptions
+from ..engine.simulate import initial_state
 from ..integrators.registry import integrator
 from ..model.plot_hints import plot_hints
-from ..model.registry import is_model_file
+from ..model.registry import builtin_models, is_model_file, resolve_model
 from ..model.system import HybridSystem
 from ..orbits.orbit import ORBIT_OPTIONS
 
@@ -45,6 +51,47 @@ def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
         except ValueError:
             raise UsageError(f"`{option} {item}`: {value!r} is not a number") from None
     return out
+
+
+def model(name: str) -> HybridSystem:
+    """MODEL of the command line (:func:`hybrid.model.registry.resolve_model`), with a note on stderr
+    when it names a built-in model and a file of that name lies in the working directory too: the
+    built-in model is used (a file is read when MODEL is a path: ``./NAME`` or ``NAME.toml``)."""
+    system = resolve_model(name)
+    if not is_model_file(name) and name in builtin_models() and os.path.lexists(name):
+        info(
+            f"note: `{name}` is the built-in model; the file {name!r} in this folder is not read (give it as "
+            f"a path, ./{name}, to use it)"
+        )
+    return system
+
+
+def add_guess_args(p: argparse.ArgumentParser) -> None:
+    """``--x0 NAME=VALUE`` (repeatable) and ``--mode0``: the start of a periodic orbit's search."""
+    p.add_argument(
+        "--x0", action="append", metavar="NAME=VALUE", help="initial guess of a variable (default 0)"
+    )
+    p.add_argument("--mode0", help="mode of the guess (default: the model's initial mode)")
+
+
+def guess(system: HybridSystem, args) -> tuple[dict[str, float], str]:
+    """The guess of ``--x0`` (every other variable 0) and its mode ``--mode0``, checked.
+
+    Raises
+    ------
+    UsageError
+        The model declares no initial mode and ``--mode0`` is not given.
+    hybrid.core.errors.ModelError, hybrid.core.errors.InputError
+        An unknown mode, an unknown variable or a value that is not finite.
+    """
+    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
+    if mode0 is None:
+        raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
+    system.mode(mode0)  # unknown mode -> ModelError
+    x0 = {n: 0.0 for n in system.variable_names}
+    x0.update(pairs(args.x0, "--x0"))
+    initial_state(system, x0, mode0)  # unknown or non-finite values -> ValueError
+    return x0, mode0
 
 
 def choose_preset(system: HybridSystem, preset: str | None) -> str | None:
@@ -227,21 +274,101 @@ def output_dir(system: HybridSystem, args) -> Path:
 def writable_folder(out: Path) -> Path:
     """``out`` (the folder of ``--out``), created and checked writable before any computation.
 
+    A file is created and removed in it, and its device must have at least
+    :data:`hybrid.core.files.MIN_FREE_BYTES` free (and a free inode where it counts them).
+
     Raises
     ------
     UsageError
-        It exists and is not a folder, or cannot be created or written.
+        It exists and is not a folder, cannot be created or written (no permission, a read-only
+        file system, a name too long), or its device is full; the message names the path, the
+        cause and what to do.
     """
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"`--out {out}`: exists and is not a folder")
     try:
+        if out.exists() and not out.is_dir():
+            raise UsageError(f"`--out {out}`: exists and is not a folder")
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".hybrid-write-test-{os.getpid()}"
-        probe.write_bytes(b"")
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        os.close(fd)
         probe.unlink()
+        free, inodes = free_bytes(out)
     except OSError as exc:
-        raise UsageError(f"output folder {str(out)!r} cannot be written: {exc.strerror or exc}") from None
+        raise UsageError(os_error_text(exc, out)) from None
+    if free < MIN_FREE_BYTES or inodes == 0:
+        what = f"{free} bytes" if free < MIN_FREE_BYTES else "no inode"
+        raise UsageError(
+            f"cannot write {str(out)!r}: its device has {what} free (ENOSPC): free some space, or choose "
+            "a folder on another disk (--out), and run again"
+        )
     return out
+
+
+def command_line() -> str:
+    """This command as typed (for the lock of an output folder: who holds it)."""
+    text = "hybrid " + " ".join(sys.argv[1:]) if len(sys.argv) > 1 else "hybrid"
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def results(out: Path, names: Iterable[str]) -> OutputFiles:
+    """The files of a command in ``out`` (:class:`hybrid.core.files.OutputFiles`, a context manager):
+    the folder locked for the run (another run there is refused at once), every file's place
+    checked, the files written in a staging folder (:meth:`~hybrid.core.files.OutputFiles.path`)
+    and renamed into place when the run ends (by success, budget or interrupt); a note on stderr
+    when a run killed in this folder left its lock and leftovers (removed)."""
+    return _Results(out, names, command_line())
+
+
+class _Results(OutputFiles):
+    def __enter__(self):
+        super().__enter__()
+        if self.lock is not None:
+            folder_note(self.lock)
+        return self
+
+
+def folder_note(lock) -> None:
+    """The note of :func:`results` for a bare :class:`hybrid.core.files.FolderLock`."""
+    if lock.stale:
+        info(
+            f"note: an earlier run in {str(lock.folder)!r} (pid {lock.stale.get('pid')}) ended without "
+            "cleaning up" + (f"; removed what it left: {', '.join(lock.removed)}" if lock.removed else "")
+        )
+
+
+class StreamClosed(OutputError):
+    """Writing to stdout failed (its reader went away, ``| head``; a full device, ``> /dev/full``)."""
+
+
+class GuardedStream:
+    """A text stream whose failed writes raise :class:`StreamClosed` naming it (stdout)."""
+
+    def __init__(self, stream, name: str):
+        self._stream = stream
+        self._name = name
+
+    def _fail(self, exc: OSError):
+        advice = (
+            "its reader stopped reading (e.g. `| head`)"
+            if exc.errno == errno.EPIPE
+            else "redirect it elsewhere"
+        )
+        return StreamClosed(os_error_text(exc, self._name, advice), exc.errno)
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except OSError as exc:
+            raise self._fail(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except OSError as exc:
+            raise self._fail(exc) from None
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 def unit(system: HybridSystem, name: str) -> str:

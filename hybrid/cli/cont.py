@@ -7,8 +7,9 @@ What it computes, in order:
    their stability, and every loss of stability located (a Hopf point for a complex pair);
 2. from each Hopf point, the branch of periodic orbits born there, followed until it leaves the
    range or meets a switch (a grazing);
-3. the periodic orbit at the preset's value of the parameter (from a transient), continued both
-   ways (e.g. the stick-slip cycle).
+3. the periodic orbit at the preset's value of the parameter (from a transient started at ``--x0``
+   in ``--mode0``, by default all zero in the model's initial mode), continued both ways (e.g. the
+   stick-slip cycle).
 
 It writes ``cont.csv`` (one row per point), ``cont.json`` (the special points, as
 :class:`hybrid.SpecialPoint` fields, and each branch's end: status, reason, range) and ``cont.png`` (amplitude and period against the parameter; stable solid, unstable dashed,
@@ -27,24 +28,33 @@ from dataclasses import replace
 import numpy as np
 
 from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branch, hopf_branch, orbit_branch
-from ..core.budget import time_limit
+from ..continuation.branch import Branch
+from ..core.budget import deadline_passed, time_limit
+from ..core.errors import BudgetExceeded
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
+from ..core.status import BranchStatus
 from ..engine.io import to_json
-from ..model.registry import resolve_model
 from ..orbits.autonomous import autonomous_orbit, time_scale
 from .common import (
     UsageError,
     add_budget,
+    add_guess_args,
     add_model_args,
     announce,
     budget_options,
+    guess,
+    model,
     output_dir,
     parameters,
     positive_float,
+    results,
 )
 
 __all__ = ["register", "run"]
+
+#: The files `cont` writes in its output folder.
+FILES = ("cont.csv", "cont.png", "cont.json")
 
 #: Grid of the equilibrium branches (points over the range).
 EQUILIBRIUM_POINTS = 41
@@ -62,6 +72,7 @@ def register(subparsers) -> None:
     )
     add_model_args(p, omega=False)
     p.add_argument("--param", required=True, metavar="NAME", help="the parameter to continue")
+    add_guess_args(p)
     p.add_argument("--range", nargs=2, type=float, required=True, metavar=("A", "B"), help="its range")
     p.add_argument(
         "--coordinate",
@@ -120,7 +131,7 @@ def _rows_of_orbits(kind: str, k: int, branch, coord: str) -> list[dict]:
 
 def run(args) -> int:
     """Handler of ``hybrid cont``."""
-    system = resolve_model(args.model)
+    system = model(args.model)
     if system.period is not None:
         raise UsageError(
             f"model `{system.name}` is periodically forced: use `hybrid frc --parameter {args.param}`"
@@ -134,6 +145,7 @@ def run(args) -> int:
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
         raise UsageError(f"--range must be two different finite numbers, got {args.range}")
     preset, params = parameters(system, args)
+    x0, mode0 = guess(system, args)
     system.parameter_values({**params, args.param: lo})  # a range outside the domain -> ValueError
     system.parameter_values({**params, args.param: hi})
     coord = args.coordinate or (list(system.plot.get("displacements", ())) or list(system.variable_names))[0]
@@ -142,7 +154,6 @@ def run(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     time_scale(system, params, None)  # a model without a period guess is refused here
     out = output_dir(system, args)
-    announce(system, preset, params)
     bar = ProgressBar(f"cont {system.name}", enabled=args.progress)
     settings = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
     t0 = time.perf_counter()
@@ -157,97 +168,151 @@ def run(args) -> int:
         "equilibria": [],
         "orbit_branches": [],
     }
-    eq_branches = []
-    with time_limit(args.max_time):
-        grid = np.linspace(lo, hi, EQUILIBRIUM_POINTS)
-        for j, mode in enumerate(m.name for m in system.modes):
-            bar(0.3 * j / len(system.modes))
-            try:
-                eb = equilibrium_branch(system, params, mode, args.param, grid)
-            except (ValueError, RuntimeError):
-                continue
-            if not any(e.converged and e.admissible for e in eb.points):
-                continue
-            eq_branches.append(eb)
-            for e in eb.points:
-                if e.converged and e.admissible:
-                    rows.append(
-                        {
-                            "kind": "equilibrium",
-                            "branch": mode,
-                            "parameter": e.params[args.param],
-                            "amplitude": 0.0,
-                            "period": math.nan,
-                            "stability": e.stability,
-                            "max_abs_multiplier": math.nan,
-                            "trivial_multiplier_error": math.nan,
-                            "modes": mode,
-                        }
-                    )
-            summary["equilibria"].append({"mode": mode, "special": [_special(sp, eb) for sp in eb.special]})
-        obranches = []
-        for eb in eq_branches:
-            for sp in eb.special:
-                if sp.kind == "hopf":
-                    eq = eb.points[sp.index]
-                    obranches.append(
-                        ("hopf", hopf_branch(eq, args.param, (lo, hi), options=options, settings=settings))
-                    )
-        bar(0.5)
-        orbit = autonomous_orbit(system, params, options=options)
-        summary["orbit_at_preset"] = {"converged": orbit.converged, "message": orbit.message}
-        if orbit.converged and lo <= params[args.param] <= hi:
-            for k, direction in enumerate((1, -1)):
-                bar(0.6 + 0.2 * k)
-                obranches.append(
-                    (
-                        "orbit",
-                        orbit_branch(
-                            orbit,
-                            args.param,
-                            (lo, hi),
-                            direction=direction,
-                            options=options,
-                            settings=settings,
-                        ),
-                    )
+    eq_branches: list = []
+    obranches: list = []
+    stopped: BaseException | None = None  # a budget that ran out, or an interrupt
+    with results(out, FILES) as files:
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        try:
+            with time_limit(args.max_time):
+                _compute(
+                    system,
+                    params,
+                    args,
+                    lo,
+                    hi,
+                    options,
+                    settings,
+                    bar,
+                    rows,
+                    summary,
+                    eq_branches,
+                    obranches,
+                    (x0, mode0),
                 )
-    bar(1.0)
-    for k, (kind, br) in enumerate(obranches):
-        rows += _rows_of_orbits(kind, k, br, coord)
-        summary["orbit_branches"].append(
-            {
-                "start": kind,
-                "points": len(br.points),
-                "status": br.status,
-                "reason": br.reason,
-                "message": br.message,
-                "special": [_special(sp, br) for sp in br.special],
-                "ends": [float(br.values[0]), float(br.values[-1])] if br.points else [],
-            }
-        )
-    wall = time.perf_counter() - t0
-    summary["wall_time_s"] = wall
-    out.mkdir(parents=True, exist_ok=True)
-    files = [out / "cont.csv", out / "cont.json"]
-    with open(out / "cont.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["kind"])
-        w.writeheader()
-        w.writerows(rows)
-    if not args.no_plot:
-        from ..plot.cont import plot_cont
+        except (BudgetExceeded, KeyboardInterrupt) as exc:  # what was computed is written below
+            stopped = exc
+        if stopped is None:
+            late = [b for b in eq_branches if b.reason == "budget"]
+            if late:
+                stopped = BudgetExceeded("time", late[0].message)
+        bar(1.0)
+        for k, (kind, br) in enumerate(obranches):
+            rows += _rows_of_orbits(kind, k, br, coord)
+            summary["orbit_branches"].append(
+                {
+                    "start": kind,
+                    "points": len(br.points),
+                    "status": br.status,
+                    "reason": br.reason,
+                    "message": br.message,
+                    "special": [_special(sp, br) for sp in br.special],
+                    "ends": [float(br.values[0]), float(br.values[-1])] if br.points else [],
+                }
+            )
+        wall = time.perf_counter() - t0
+        summary["wall_time_s"] = wall
+        if stopped is not None:
+            summary["stopped"] = str(stopped) if isinstance(stopped, BudgetExceeded) else "interrupted"
+        written = ["cont.csv"]
+        with open(files.path("cont.csv"), "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["kind"])
+            w.writeheader()
+            w.writerows(rows)
+        if not args.no_plot and not isinstance(stopped, KeyboardInterrupt):
+            from ..plot.cont import plot_cont
 
-        files.append(plot_cont(system, args.param, coord, eq_branches, obranches, out / "cont.png"))
-    summary["files"] = [str(f) for f in files]
-    (out / "cont.json").write_text(to_json(summary) + "\n")
+            plot_cont(system, args.param, coord, eq_branches, obranches, files.path("cont.png"))
+            written.append("cont.png")
+        written.append("cont.json")
+        summary["files"] = [str(files.final(n)) for n in written]
+        files.path("cont.json").write_text(to_json(summary) + "\n")
+        if isinstance(stopped, KeyboardInterrupt):
+            raise stopped  # the files are put in place; hybrid.cli.main reports the interrupt
     if args.json:
         print(to_json(summary))
     else:
         print(_text(summary))
-    for f in files:
-        print(f"wrote {f}", file=sys.stderr)
+    for n in written:
+        print(f"wrote {out / n}", file=sys.stderr)
     print(f"continuation in {wall:.1f} s", file=sys.stderr)
+    if stopped is not None:
+        print(f"hybrid: {stopped}; what was computed before is in {out}", file=sys.stderr)
+        return 1
     return 0
+
+
+def _compute(
+    system, params, args, lo, hi, options, settings, bar, rows, summary, eq_branches, obranches, start
+):
+    """The three phases (module docstring), the orbit's search from ``start`` (``(x0, mode0)``);
+    results appended to ``rows``, ``summary``,
+    ``eq_branches`` and ``obranches`` as they come (an interrupt or a budget keeps them)."""
+    grid = np.linspace(lo, hi, EQUILIBRIUM_POINTS)
+    for j, mode in enumerate(m.name for m in system.modes):
+        bar(0.3 * j / len(system.modes))
+        if deadline_passed():
+            eq_branches.append(_late(system, params, args.param, lo))
+            return
+        try:
+            eb = equilibrium_branch(system, params, mode, args.param, grid)
+        except (ValueError, RuntimeError):
+            continue
+        if not any(e.converged and e.admissible for e in eb.points) and eb.reason != "budget":
+            continue
+        eq_branches.append(eb)
+        for e in eb.points:
+            if e.converged and e.admissible:
+                rows.append(
+                    {
+                        "kind": "equilibrium",
+                        "branch": mode,
+                        "parameter": e.params[args.param],
+                        "amplitude": 0.0,
+                        "period": math.nan,
+                        "stability": e.stability,
+                        "max_abs_multiplier": math.nan,
+                        "trivial_multiplier_error": math.nan,
+                        "modes": mode,
+                    }
+                )
+        summary["equilibria"].append({"mode": mode, "special": [_special(sp, eb) for sp in eb.special]})
+        if eb.reason == "budget":
+            return
+    for eb in list(eq_branches):
+        for sp in eb.special:
+            if sp.kind == "hopf":
+                eq = eb.points[sp.index]
+                obranches.append(
+                    ("hopf", hopf_branch(eq, args.param, (lo, hi), options=options, settings=settings))
+                )
+    bar(0.5)
+    orbit = autonomous_orbit(system, params, *start, options=options)
+    summary["orbit_at_preset"] = {"converged": orbit.converged, "message": orbit.message}
+    if orbit.converged and lo <= params[args.param] <= hi:
+        for k, direction in enumerate((1, -1)):
+            bar(0.6 + 0.2 * k)
+            obranches.append(
+                (
+                    "orbit",
+                    orbit_branch(
+                        orbit,
+                        args.param,
+                        (lo, hi),
+                        direction=direction,
+                        options=options,
+                        settings=settings,
+                    ),
+                )
+            )
+
+
+def _late(system, params, parameter: str, lo: float) -> Branch:
+    """An empty branch of equilibria standing for the modes not reached before the deadline."""
+    br = Branch("equilibria", system, {**params, parameter: lo}, parameter)
+    br.status, br.reason = BranchStatus.STOPPED, "budget"
+    br.message = "time limit reached (hybrid.time_limit; CLI --max-time) before the equilibria of every mode"
+    return br
 
 
 def _text(s: dict) -> str:

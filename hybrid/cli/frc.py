@@ -15,16 +15,17 @@ from importlib.metadata import entry_points
 import numpy as np
 
 from ..continuation.branch import forcing_parameter, orbit_row
-from ..continuation.frc import default_range, frequency_response
+from ..continuation.frc import Piece, default_range, frequency_response
+from ..continuation.switching import SWITCHABLE, switch_branch
 from ..core.budget import time_limit
 from ..core.errors import HybridError
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
+from ..core.workers import Terminated, cap_workers
 from ..engine.io import csv_cell, to_json, write_rows_csv
 from ..model.linear import linear_response, natural_frequencies
 from ..model.plot_hints import plot_hints, unit_of
-from ..model.registry import resolve_model
 from ..model.system import HybridSystem
 from .common import (
     OUT_HELP,
@@ -36,13 +37,18 @@ from .common import (
     budget_options,
     check_integrator,
     info,
+    model,
     output_dir,
     parameters,
     positive_float,
     positive_int,
+    results,
 )
 
 FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
+
+#: The files `frc` writes in its output folder.
+FILES = ("frc.csv", "frc_special.csv", "frc_overlays.csv", "frc.png", "frc.json")
 
 
 def register(sub) -> None:
@@ -66,6 +72,16 @@ def register(sub) -> None:
         "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     add_tolerances(p)
+    p.add_argument(
+        "--switch",
+        type=int,
+        action="append",
+        default=None,
+        metavar="N",
+        help="switch branches at special point N (its row in frc_special.csv, from 0, as printed): at a "
+        "branch-point follow the crossing branch both ways, at a period-doubling the branch of twice the "
+        "period (hybrid.switch_branch); the new branches are added to the curve (repeatable)",
+    )
     p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -180,6 +196,53 @@ def frc_text(fr, preset: str | None) -> str:
     return "\n".join(lines)
 
 
+def _switch(fr, rows: list[int], p_range, options: SolverOptions, on_point) -> list[dict]:
+    """Switch branches at the special points of rows ``rows`` (of :meth:`FrequencyResponse.special_rows`):
+    the new branches are added to ``fr`` as one more piece over the range (their orbits passed to
+    ``on_point`` with their branch indices); returns what was done, per row."""
+    index = [(k, j) for k, b in enumerate(fr.branches) for j in range(len(b.special))]
+    for n in rows:
+        if not 0 <= n < len(index):
+            raise UsageError(
+                f"--switch {n}: the curve has {len(index)} special points (rows 0 to {len(index) - 1})"
+            )
+        k, j = index[n]
+        kind = fr.branches[k].special[j].kind
+        if kind not in SWITCHABLE["forced-orbits"]:
+            ok = [
+                str(m)
+                for m, (a, b) in enumerate(index)
+                if fr.branches[a].special[b].kind in SWITCHABLE["forced-orbits"]
+            ]
+            raise UsageError(
+                f"--switch {n}: special point {n} is a {kind}; branches are switched at a branch-point or a "
+                f"period-doubling (rows: {', '.join(ok) or 'none'})"
+            )
+    out = []
+    piece = Piece(p_range[0], p_range[1], None)
+    for n in rows:
+        k, j = index[n]
+        first = len(fr.branches)
+        new = switch_branch(fr.branches[k], j, p_range, options=options)
+        piece.branches.extend(new)
+        if piece not in fr.pieces:
+            fr.pieces.append(piece)
+        for m, b in enumerate(new):
+            for o in b.points:
+                on_point(first + m, o)
+        info(
+            f"switched at special point {n} ({fr.branches[k].special[j].kind}): branches {first} to {first + len(new) - 1}"
+        )
+        out.append(
+            {
+                "row": n,
+                "kind": fr.branches[k].special[j].kind,
+                "branches": list(range(first, first + len(new))),
+            }
+        )
+    return out
+
+
 def import_in_background(module: str) -> Callable[[], None]:
     """A function that starts importing ``module`` in a daemon thread (a later import waits for it),
     at the lowest scheduling priority where the platform sets one per thread (Linux): it then
@@ -199,7 +262,7 @@ def import_in_background(module: str) -> Callable[[], None]:
 
 
 def cmd_frc(args) -> int:
-    system = resolve_model(args.model)
+    system = model(args.model)
     if system.period is None:
         raise UsageError(
             f"model `{system.name}` declares no forcing `period`: a frequency response needs one; an "
@@ -225,26 +288,62 @@ def cmd_frc(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
-    info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
-    out.mkdir(parents=True, exist_ok=True)
+    with results(out, FILES) as staged:
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        info(f"continuation in {par} from {lo:.6g} to {hi:.6g}")
+        fr, files, summary, wall = _run_frc(
+            args, system, params, preset, par, forcing, lo, hi, options, out, staged
+        )
+    if fr is None:  # interrupted: the rows written are in place (`wall` is the exit code)
+        return wall
+    print(to_json(summary) if args.json else frc_text(fr, preset))
+    for f in files:
+        info(f"wrote {f}")
+    n = sum(len(b.points) for b in fr.branches)
+    info(f"{n} periodic orbits in {wall:.1f} s")
+    family = sum(1 for b in fr.branches for o in b.points if o.family)
+    if family and system.parsed.gauge is None:
+        info(
+            f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
+            "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "
+            "from a transient), which may be off-centre, e.g. touching a guard on one side only (slip setting "
+            "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
+            "element's offset) picks the member (README, docs/models.md)"
+        )
+    if fr.status != ResponseStatus.COMPLETE:
+        for m in fr.messages():
+            info(f"hybrid: {m}")
+        return 1
+    return 0
+
+
+def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, staged):
+    """The curve computed and its files written in ``staged`` (:func:`hybrid.cli.common.results`);
+    ``(fr, files, summary, wall)``, or Nones after an interrupt (the orbits done are kept)."""
     # Every orbit is written to frc.csv as it is accepted: an interrupt keeps what was done.
-    csv_path = out / "frc.csv"
+    csv_path = out / "frc.csv"  # (where it will be once the run ends)
     written = {"rows": 0}
-    fh = csv_path.open("w", newline="")
+    fh = staged.path("frc.csv").open("w", newline="")
     writer = csv.writer(fh)
     columns: list[str] = []
 
     def on_point(k: int, orbit) -> None:
         row = {"branch": k, **orbit_row(par, orbit)}
-        if not columns:
-            columns.extend(row)
-            writer.writerow(columns)
-        writer.writerow([csv_cell(row.get(c)) for c in columns])
-        fh.flush()
+        try:
+            if not columns:
+                columns.extend(row)
+                writer.writerow(columns)
+            writer.writerow([csv_cell(row.get(c)) for c in columns])
+            fh.flush()
+        except OSError as exc:  # (a full disk: the error names the file)
+            exc.filename = exc.filename or str(csv_path)
+            raise
         written["rows"] += 1
 
     bar = ProgressBar(f"frc {system.name}", enabled=args.progress)
+    workers, note = cap_workers(args.workers, None)
+    if note:  # (the pieces of the range cap them too, silently: one per resonance)
+        info(note)
     t0 = time.perf_counter()
     try:
         with time_limit(args.max_time):
@@ -256,18 +355,22 @@ def cmd_frc(args) -> int:
                 options=options,
                 progress=bar,
                 on_point=on_point,
-                workers=args.workers or os.cpu_count() or 1,
+                workers=workers,
                 # matplotlib is imported (0.4 s) while the workers compute
                 while_computing=None if args.no_plot else import_in_background("hybrid.plot.frc"),
             )
-    except KeyboardInterrupt:
+            switched = _switch(fr, args.switch, (lo, hi), options, on_point) if args.switch else []
+    except KeyboardInterrupt as exc:
         info(
-            f"hybrid: interrupted after {time.perf_counter() - t0:.1f} s: "
+            f"hybrid: interrupted{_signal_name(exc)} after {time.perf_counter() - t0:.1f} s: "
             f"{written['rows']} periodic orbits kept in {csv_path}"
         )
-        return 130
+        return None, None, None, exc.exit_code if isinstance(exc, Terminated) else 130
     finally:
-        fh.close()
+        try:
+            fh.close()
+        except OSError:  # its rows were flushed one by one: the error, if any, was raised there
+            pass
     bar(1.0)
     wall = time.perf_counter() - t0
 
@@ -275,15 +378,12 @@ def cmd_frc(args) -> int:
 
     files = [csv_path]
     special = fr.special_rows
-    files.append(
-        write_rows_csv(
-            special,
-            out / "frc_special.csv",
-            None
-            if special
-            else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
-        )
+    write_rows_csv(
+        special,
+        staged.path("frc_special.csv"),
+        None if special else ["branch", "row", "kind", par, "status", "accuracy", "stability", "description"],
     )
+    files.append(out / "frc_special.csv")
     overlays, references, grid = {}, {}, None
     if par == forcing:  # the models' overlays are curves over the forcing frequency
         zooms = zoom_windows(fr)
@@ -297,11 +397,13 @@ def cmd_frc(args) -> int:
             for name, values in coords.items():
                 for row, v in zip(ov_rows, values, strict=True):
                     row[f"{curve}: {name}"] = float(v)
-        files.append(write_rows_csv(ov_rows, out / "frc_overlays.csv"))
+        write_rows_csv(ov_rows, staged.path("frc_overlays.csv"))
+        files.append(out / "frc_overlays.csv")
     if not args.no_plot:
         from ..plot.frc import plot_frc
 
-        files.append(plot_frc(fr, out / "frc.png", overlays=overlays, grid=grid, references=references))
+        plot_frc(fr, staged.path("frc.png"), overlays=overlays, grid=grid, references=references)
+        files.append(out / "frc.png")
     summary = {
         "model": system.name,
         "preset": preset,
@@ -322,30 +424,18 @@ def cmd_frc(args) -> int:
         ],
         "special": special,
         "gaps": [list(g) for g in fr.gaps],
+        "switched": switched,
         "complete": fr.status == ResponseStatus.COMPLETE,
         "overlays": list(overlays),
         "linear_references": {c: plot_hints(system)["linear_references"][c] for c in references},
         "wall_time_s": wall,
         "files": [str(f) for f in files] + [str(out / "frc.json")],
     }
-    (out / "frc.json").write_text(to_json(summary) + "\n")
+    staged.path("frc.json").write_text(to_json(summary) + "\n")
     files.append(out / "frc.json")
-    print(to_json(summary) if args.json else frc_text(fr, preset))
-    for f in files:
-        info(f"wrote {f}")
-    n = sum(len(b.points) for b in fr.branches)
-    info(f"{n} periodic orbits in {wall:.1f} s")
-    family = sum(1 for b in fr.branches for o in b.points if o.family)
-    if family and system.parsed.gauge is None:
-        info(
-            f"hybrid: {family} orbits belong to families of periodic orbits (a neutral multiplier 1) and the "
-            "model declares no `[orbit] gauge`: the branch keeps the member nearest its first orbit (found "
-            "from a transient), which may be off-centre, e.g. touching a guard on one side only (slip setting "
-            "in early); a gauge (an expression of the state that is 0 on the member wanted, e.g. a stuck "
-            "element's offset) picks the member (README, docs/models.md)"
-        )
-    if fr.status != ResponseStatus.COMPLETE:
-        for m in fr.messages():
-            info(f"hybrid: {m}")
-        return 1
-    return 0
+    return fr, files, summary, wall
+
+
+def _signal_name(exc: KeyboardInterrupt) -> str:
+    """`` (SIGTERM)`` for a terminating signal, nothing for Ctrl-C."""
+    return f" ({exc.name})" if isinstance(exc, Terminated) else ""

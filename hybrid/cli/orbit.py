@@ -3,43 +3,42 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 from ..continuation.periodic import periodic_orbit
 from ..core.budget import time_limit
 from ..core.options import ShootingOptions, SolverOptions
 from ..engine.io import to_json, write_trajectory_csv
-from ..engine.simulate import initial_state
-from ..model.registry import resolve_model
 from ..orbits.orbit import PeriodicOrbit, stability_text
 from .common import (
     OUT_HELP,
-    UsageError,
     add_budget,
+    add_guess_args,
     add_model_args,
     add_tolerances,
     announce,
     budget_options,
     check_integrator,
+    guess,
     info,
+    model,
     nonnegative_int,
     output_dir,
-    pairs,
     parameters,
     positive_int,
+    results,
     samples_per_period,
     unit,
 )
+
+#: The files `orbit` writes in its output folder.
+FILES = ("orbit.csv", "orbit.png", "orbit.json")
 
 
 def register(sub) -> None:
     """Add this subcommand to the subparsers of ``hybrid``."""
     p = sub.add_parser("orbit", help="periodic orbit at one forcing frequency, with its Floquet multipliers")
     add_model_args(p)
-    p.add_argument(
-        "--x0", action="append", metavar="NAME=VALUE", help="initial guess of a variable (default 0)"
-    )
-    p.add_argument("--mode0", help="mode of the guess (default: the model's initial mode)")
+    add_guess_args(p)
     p.add_argument(
         "--transient",
         type=nonnegative_int,
@@ -102,48 +101,44 @@ def orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
 
 
 def cmd_orbit(args) -> int:
-    system = resolve_model(args.model)
+    system = model(args.model)
     spp = samples_per_period(args)
     preset, params = parameters(system, args)
-    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
-    if mode0 is None:
-        raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
-    system.mode(mode0)  # unknown mode -> ModelError
-    guess = {n: 0.0 for n in system.variable_names}
-    guess.update(pairs(args.x0, "--x0"))
-    initial_state(system, guess, mode0)  # unknown or non-finite values -> ValueError
+    x0, mode0 = guess(system, args)
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
-    t0 = time.perf_counter()
-    with time_limit(args.max_time):
-        orbit = periodic_orbit(
-            system,
-            params,
-            guess,
-            mode0,
-            options=options,
-            settings=ShootingOptions(transient_periods=args.transient, samples_per_period=spp),
-        )
-    wall = time.perf_counter() - t0
-    summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}
-    summary["multiplier_moduli"] = [float(abs(z)) for z in orbit.multipliers]
-    summary["wall_time_s"] = wall
-    files: list[Path] = []
-    if orbit.converged:
-        out.mkdir(parents=True, exist_ok=True)
-        files.append(write_trajectory_csv(orbit.trajectory, out / "orbit.csv"))
-        if not args.no_plot:
-            from ..plot.trajectory import plot_orbit  # matplotlib only when a figure is wanted
+    with results(out, FILES) as files:
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        t0 = time.perf_counter()
+        with time_limit(args.max_time):
+            orbit = periodic_orbit(
+                system,
+                params,
+                x0,
+                mode0,
+                options=options,
+                settings=ShootingOptions(transient_periods=args.transient, samples_per_period=spp),
+            )
+        wall = time.perf_counter() - t0
+        summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}
+        summary["multiplier_moduli"] = [float(abs(z)) for z in orbit.multipliers]
+        summary["wall_time_s"] = wall
+        written: list[str] = []
+        if orbit.converged:  # (else the folder keeps no orbit: a previous run's files are removed)
+            write_trajectory_csv(orbit.trajectory, files.path("orbit.csv"))
+            written.append("orbit.csv")
+            if not args.no_plot:
+                from ..plot.trajectory import plot_orbit  # matplotlib only when a figure is wanted
 
-            files.append(plot_orbit(orbit, out / "orbit.png"))
-        summary["files"] = [str(f) for f in files] + [str(out / "orbit.json")]
-        files.append(out / "orbit.json")
-        (out / "orbit.json").write_text(to_json(summary) + "\n")
+                plot_orbit(orbit, files.path("orbit.png"))
+                written.append("orbit.png")
+            written.append("orbit.json")
+            summary["files"] = [str(files.final(n)) for n in written]
+            files.path("orbit.json").write_text(to_json(summary) + "\n")
     print(to_json(summary) if args.json else orbit_text(orbit, preset))
-    for f in files:
-        info(f"wrote {f}")
+    for n in written:
+        info(f"wrote {out / n}")
     if not orbit.converged:
         info(f"hybrid: no periodic orbit: {orbit.message}")
         return 1

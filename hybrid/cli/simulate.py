@@ -12,7 +12,6 @@ from ..engine.io import EventsCSVWriter, TrajectoryCSVWriter, to_json, trajector
 from ..engine.record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
 from ..engine.simulate import simulate
 from ..model.plot_hints import plot_hints
-from ..model.registry import resolve_model
 from .common import (
     OUT_HELP,
     UsageError,
@@ -22,19 +21,28 @@ from .common import (
     budget_options,
     check_integrator,
     info,
+    model,
     output_dir,
     pairs,
     parameters,
     positive_float,
     positive_int,
+    results,
     samples_per_period,
 )
 
 #: Forcing periods at the end of a `simulate` run kept in memory for its figure.
 PLOT_PERIODS = 4.0
 
+#: Samples at the end of a `simulate` run kept in memory for its figure, at most (a model without a
+#: period is sampled on every step: its window is the last samples, not the last periods).
+PLOT_SAMPLES = 100_000
+
 #: Time buckets of the whole-run panel of the `simulate` figure.
 HISTORY_BUCKETS = 2000
+
+#: The files `simulate` writes in its output folder.
+FILES = ("trajectory.csv", "events.csv", "trajectory.png", "summary.json")
 
 
 def register(sub) -> None:
@@ -81,7 +89,7 @@ class SwitchesAt(Sink):
 
 
 def cmd_simulate(args) -> int:
-    system = resolve_model(args.model)
+    system = model(args.model)
     spp = samples_per_period(args)
     preset, params = parameters(system, args)
     period = system.period_value(params)
@@ -101,13 +109,13 @@ def cmd_simulate(args) -> int:
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
     out = output_dir(system, args)
-    announce(system, preset, params)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
     kwargs = {"samples_per_period": spp, "include_events": True} if period else {}
     # Samples and switches go to the CSV files as the run goes on; memory holds the figure's window
-    # (the last periods; the whole run, up to the in-memory cap, for a model without a period) and a
-    # min/max envelope of the displacements for its whole-run panel.
-    keep_last = min(PLOT_PERIODS * period, t_end) if period else t_end
+    # (the last periods; for a model without a period, sampled on every step, the last PLOT_SAMPLES
+    # samples) and a min/max envelope of the displacements for its whole-run panel: memory is
+    # bounded whatever the length of the run. Without a figure only the last sample is kept.
+    keep_last = 0.0 if args.no_plot else min(PLOT_PERIODS * period, t_end) if period else t_end
     displacements = list(plot_hints(system)["displacements"])
     history = (
         None
@@ -115,52 +123,53 @@ def cmd_simulate(args) -> int:
         else Envelope(displacements, system.variable_names, (0.0, t_end), HISTORY_BUCKETS)
     )
     at_start = SwitchesAt(0.0)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    with (
-        TrajectoryCSVWriter(out / "trajectory.csv", system) as samples_csv,
-        EventsCSVWriter(out / "events.csv", system) as events_csv,
-        time_limit(args.max_time),
-    ):
-        sink = Tee(samples_csv, events_csv, at_start, *([history] if history is not None else []))
-        traj = simulate(
-            system,
-            params,
-            (0.0, t_end),
-            x0,
-            args.mode0,
-            options=options,
-            throw=False,
-            progress=bar,
-            sink=sink,
-            keep_last=keep_last,
-            **kwargs,
-        )
-    wall = time.perf_counter() - t0
-    files = [samples_csv.path, events_csv.path]
-    if history is not None and traj.t.size > 1:
-        from ..plot.trajectory import plot_trajectory  # matplotlib only when a figure is wanted
+    with results(out, FILES) as files:
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        t0 = time.perf_counter()
+        with (
+            TrajectoryCSVWriter(files.path("trajectory.csv"), system) as samples_csv,
+            EventsCSVWriter(files.path("events.csv"), system) as events_csv,
+            time_limit(args.max_time),
+        ):
+            sink = Tee(samples_csv, events_csv, at_start, *([history] if history is not None else []))
+            traj = simulate(
+                system,
+                params,
+                (0.0, t_end),
+                x0,
+                args.mode0,
+                options=options,
+                throw=False,
+                progress=bar,
+                sink=sink,
+                keep_last=keep_last,
+                max_kept=PLOT_SAMPLES,
+                **kwargs,
+            )
+        wall = time.perf_counter() - t0
+        written = ["trajectory.csv", "events.csv"]
+        if history is not None and traj.t.size > 1:
+            from ..plot.trajectory import plot_trajectory  # matplotlib only when a figure is wanted
 
-        files.append(
-            plot_trajectory(traj, out / "trajectory.png", last_periods=PLOT_PERIODS, history=history)
+            plot_trajectory(traj, files.path("trajectory.png"), last_periods=PLOT_PERIODS, history=history)
+            written.append("trajectory.png")
+        summary = trajectory_summary(traj)
+        summary.update(
+            {
+                "preset": preset,
+                "omega": params.get("Omega"),
+                "periods": round(t_end / period, 9) if period else None,
+                "wall_time_s": wall,
+                "files": [str(files.final(n)) for n in written],
+            }
         )
-    summary = trajectory_summary(traj)
-    summary.update(
-        {
-            "preset": preset,
-            "omega": params.get("Omega"),
-            "periods": round(t_end / period, 9) if period else None,
-            "wall_time_s": wall,
-            "files": [str(f) for f in files],
-        }
-    )
-    summary_path = out / "summary.json"
-    summary["files"].append(str(summary_path))
-    summary_path.write_text(to_json(summary) + "\n")
+        written.append("summary.json")
+        summary["files"].append(str(files.final("summary.json")))
+        files.path("summary.json").write_text(to_json(summary) + "\n")
     if args.json:
         print(to_json(summary))
-    for f in files + [summary_path]:
-        info(f"wrote {f}")
+    for n in written:
+        info(f"wrote {out / n}")
     at_start = at_start.events
     if at_start:
         info(

@@ -8,16 +8,20 @@ writes the design charts of a finished (or partial) sweep (:mod:`hybrid.plot.cha
 from __future__ import annotations
 
 import argparse
+import asyncio
+import logging
 import math
-import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 
+from ..core.budget import time_limit
+from ..core.errors import WorkerError
+from ..core.files import FolderLock
 from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
-from ..model.registry import resolve_model
+from ..core.workers import ProcessPool, Terminated, cap_workers, die_with_parent
 from ..studies.sweep import FAILED, MANIFEST, linear_axis, load_sweep, log_axis, sweep
 from .common import (
     UsageError,
@@ -25,15 +29,24 @@ from .common import (
     add_tolerances,
     add_work_limits,
     check_integrator,
+    command_line,
     default_output_dir,
+    folder_note,
     info,
+    model,
     parameters,
     positive_float,
     positive_int,
+    results,
     writable_folder,
 )
 
 __all__ = ["register", "cmd_sweep", "cmd_chart", "dask_client", "die_with_parent"]
+
+#: Seconds to connect to a Dask scheduler and hear it answer as one (`--scheduler`).
+HANDSHAKE_TIMEOUT = 10.0
+#: The files `chart` writes in its output folder.
+CHART_FILES = ("chart.csv", "chart.json", "chart_lines.png", "chart_plane.png")
 
 
 class _AxisAction(argparse.Action):
@@ -136,6 +149,21 @@ def register(sub) -> None:
         metavar="SECONDS",
         help="wall-clock limit of one point: it is recorded as `time limit` and the sweep goes on",
     )
+    p.add_argument(
+        "--max-time",
+        type=positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="wall-clock limit of the whole sweep (default none): the points finished are kept, those in "
+        "progress dropped; --resume goes on",
+    )
+    p.add_argument(
+        "--worker-wait",
+        type=positive_float,
+        default=60.0,
+        metavar="SECONDS",
+        help="with --scheduler: stop when the cluster has had no worker for this long (default 60 s)",
+    )
     add_tolerances(p)
     add_work_limits(p)
     p.add_argument(
@@ -154,43 +182,102 @@ def register(sub) -> None:
     p.set_defaults(handler=cmd_chart)
 
 
-def dask_client(address: str):
-    """A ``distributed.Client`` connected to ``address``.
+def dask_client(address: str, timeout: float | None = None):
+    """A ``distributed.Client`` connected to the Dask scheduler at ``address``.
+
+    The scheduler is asked who it is first, within ``timeout`` seconds (default
+    :data:`HANDSHAKE_TIMEOUT`): a listener that is not a Dask scheduler, or that never answers, is
+    refused in that time, whatever it sends.
 
     Raises
     ------
     UsageError
-        Dask is not installed, or the scheduler cannot be reached.
+        Dask is not installed, nothing listens at ``address``, or what listens there is not a
+        Dask scheduler or does not answer within ``timeout`` [s].
     """
     try:
         from distributed import Client
+        from distributed.comm import connect
     except ImportError:
         raise UsageError(
             "`--scheduler` needs Dask's distributed scheduler, which is not installed here: "
             "pip install 'dask[distributed]>=2024.1' (from a checkout of hybrid: pip install '.[dask]')"
         ) from None
+    timeout = HANDSHAKE_TIMEOUT if timeout is None else timeout
+
+    async def identity():
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        try:
+            await asyncio.wait_for(comm.write({"op": "identity"}), timeout)
+            return await asyncio.wait_for(comm.read(), timeout)
+        finally:
+            comm.abort()
+
+    with _quiet_dask():
+        try:
+            who = asyncio.run(identity())
+        except TimeoutError:
+            raise UsageError(
+                f"`--scheduler {address}`: no Dask scheduler answered within {timeout:g} s (what listens "
+                "there is silent, or not a Dask scheduler); give the address `dask scheduler` prints"
+            ) from None
+        except OSError as exc:
+            raise UsageError(f"`--scheduler {address}`: cannot connect: {exc}") from None
+        except Exception as exc:  # anything else a stranger at that address makes the client raise
+            raise UsageError(
+                f"`--scheduler {address}`: not a Dask scheduler ({type(exc).__name__}: {str(exc)[:120]}); "
+                "give the address `dask scheduler` prints"
+            ) from None
+        if not (isinstance(who, dict) and who.get("type") == "Scheduler"):
+            raise UsageError(
+                f"`--scheduler {address}`: not a Dask scheduler (it answered {str(who)[:80]!r}); give the "
+                "address `dask scheduler` prints"
+            )
+        try:
+            return Client(address, timeout=timeout)
+        except Exception as exc:
+            raise UsageError(
+                f"`--scheduler {address}`: cannot connect: {type(exc).__name__}: {exc}"
+            ) from None
+
+
+@contextmanager
+def _quiet_dask():
+    """Dask's own log (its warnings and tracebacks on a lost connection) silenced: hybrid reports
+    what happened in one line."""
+    log = logging.getLogger("distributed")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
     try:
-        return Client(address, timeout=10)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise UsageError(f"`--scheduler {address}`: cannot connect: {exc}") from None
+        yield
+    finally:
+        log.setLevel(level)
 
 
-def die_with_parent() -> None:
-    """Ask the kernel to end this (worker) process when its parent dies (Linux; elsewhere nothing).
+class _Workers:
+    """The heartbeat of a sweep on a Dask cluster: stops it (:class:`WorkerError`) when the cluster
+    has had no worker for ``patience`` seconds (none started, or all died)."""
 
-    A worker of a ``ProcessPoolExecutor`` whose parent was killed outright (SIGKILL) would otherwise
-    wait on its task queue for ever; finished points are on disk, and ``--resume`` goes on.
-    """
-    import ctypes
-    import signal
+    def __init__(self, client, address: str, patience: float):
+        self.client, self.address, self.patience = client, address, patience
+        self.seen = time.monotonic()
 
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux: workers may outlive a killed parent
-        pass
-    if os.getppid() == 1:  # the parent died before the call
-        os._exit(1)
+    def count(self) -> int:
+        try:
+            return len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
+        except Exception:  # the scheduler is gone or does not answer: no worker
+            return 0
+
+    def __call__(self) -> None:
+        now = time.monotonic()
+        if self.count():
+            self.seen = now
+        elif now - self.seen > self.patience:
+            raise WorkerError(
+                f"the Dask cluster at {self.address} has had no worker for {self.patience:g} s (--worker-wait): "
+                f"start workers (dask worker {self.address}) and run again with --resume; the points "
+                "finished are kept"
+            )
 
 
 class _SweepBar:
@@ -221,7 +308,7 @@ class _SweepBar:
 
 
 def cmd_sweep(args) -> int:
-    system = resolve_model(args.model)
+    system = model(args.model)
     if system.period is None:
         raise UsageError(
             f"model `{system.name}` declares no forcing `period`: a sweep of frequency responses needs one "
@@ -243,53 +330,71 @@ def cmd_sweep(args) -> int:
     out = writable_folder(
         Path(args.out) if args.out is not None else default_output_dir(system, args.model) / "sweep"
     )
+    with FolderLock(out, command_line()) as lock:  # one run in the folder: another is refused at once
+        folder_note(lock)
+        return _sweep_in(args, system, preset, params, axes, p_range, options, out)
+
+
+def _sweep_in(args, system, preset, params, axes, p_range, options, out: Path) -> int:
+    """The sweep in ``out``, whose lock is held."""
     if (out / MANIFEST).exists() and not args.resume:
         raise UsageError(
             f"{str(out)!r} already holds a sweep: add --resume to go on with it, or give another --out"
         )
+    resumed = load_sweep(out) if args.resume and (out / MANIFEST).exists() else None  # checked first
     n = math.prod(len(a.values) for a in axes)
     grid = " x ".join(f"{a.name} ({len(a.values)} {a.spacing})" for a in axes)
     info(f"sweep of `{system.name}`" + (f" (preset `{preset}`)" if preset else "") + f": {grid} = {n} points")
-    if args.scheduler is not None:
-        executor = dask_client(args.scheduler)
-        where = f"Dask scheduler {args.scheduler}"
-    else:
-        workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-        executor = ProcessPoolExecutor(max_workers=workers, initializer=die_with_parent)
-        where = f"{workers} worker processes"
-    info(f"running on {where}; each point written to {out} as it finishes")
-    resumed = load_sweep(out) if args.resume and (out / MANIFEST).exists() else None
     failed = sum(r["status"] in FAILED for r in resumed.points.values()) if resumed is not None else 0
     bar = _SweepBar(f"sweep {system.name}", args.progress, n, failed)
+    heartbeat = None
+    if args.scheduler is not None:
+        executor = dask_client(args.scheduler)
+        heartbeat = _Workers(executor, args.scheduler, args.worker_wait)
+        where = f"Dask scheduler {args.scheduler}"
+    else:
+        todo = n - (len(resumed.points) if resumed is not None else 0)
+        workers, note = cap_workers(args.workers, todo, "points to compute")
+        if note:
+            info(note)
+        executor = ProcessPool(workers)
+        where = f"{workers} worker processes"
+    info(f"running on {where}; each point written to {out} as it finishes")
     t0 = time.perf_counter()
     try:
-        res = sweep(
-            system,
-            params,
-            axes,
-            out,
-            p_range=p_range,
-            coordinate=args.coordinate,
-            options=options,
-            point_time_limit=args.point_time_limit,
-            executor=executor,
-            resume=args.resume,
-            progress=bar,
-            on_point=bar.point,
-        )
-    except KeyboardInterrupt:
+        with _quiet_dask(), time_limit(args.max_time) if args.max_time else _nothing():
+            res = sweep(
+                system,
+                params,
+                axes,
+                out,
+                p_range=p_range,
+                coordinate=args.coordinate,
+                options=options,
+                point_time_limit=args.point_time_limit,
+                executor=executor,
+                resume=args.resume,
+                progress=bar,
+                on_point=bar.point,
+                heartbeat=heartbeat,
+            )
+    except KeyboardInterrupt as exc:
+        _stop(executor)
+        what = f" ({exc.name})" if isinstance(exc, Terminated) else ""
         info(
-            f"hybrid: interrupted after {time.perf_counter() - t0:.1f} s: finished points kept in {out}; "
+            f"hybrid: interrupted{what} after {time.perf_counter() - t0:.1f} s: finished points kept in {out}; "
             "run again with --resume to compute the rest"
         )
-        return 130
-    finally:
-        if args.scheduler is not None:
-            executor.close()
-        else:
-            executor.shutdown(wait=False, cancel_futures=True)
+        return exc.exit_code if isinstance(exc, Terminated) else 130
+    except BaseException:
+        _stop(executor)
+        raise
+    _stop(executor)
     wall = time.perf_counter() - t0
     print(_sweep_text(res, wall))
+    if res.stopped:
+        info(f"hybrid: {res.stopped}")
+        return 1
     if res.lost:
         info(
             f"hybrid: {len(res.lost)} points lost by the executor (first: {res.lost[0][1]}); --resume computes them"
@@ -301,6 +406,24 @@ def cmd_sweep(args) -> int:
         )
         return 1
     return 0
+
+
+@contextmanager
+def _nothing():
+    yield
+
+
+def _stop(executor) -> None:
+    """End the executor's work now: a process pool's workers killed (the points in progress are
+    dropped: they have no file), a Dask client closed."""
+    if isinstance(executor, ProcessPool):
+        executor.kill()
+        return
+    with _quiet_dask():  # (hybrid.sweep has cancelled its futures)
+        try:
+            executor.close(timeout=5)
+        except Exception:
+            pass
 
 
 def _sweep_text(res, wall: float) -> str:
@@ -327,10 +450,11 @@ def _sweep_text(res, wall: float) -> str:
 def cmd_chart(args) -> int:
     from ..plot.chart import write_charts
 
-    res = load_sweep(args.folder)
-    out = writable_folder(Path(args.out)) if args.out is not None else Path(args.folder)
-    files, lines = write_charts(res, out, x=args.x)
+    res = load_sweep(args.folder)  # every file checked first
+    out = writable_folder(Path(args.out) if args.out is not None else Path(args.folder))
+    with results(out, CHART_FILES) as staged:
+        files, lines = write_charts(res, staged.staging, x=args.x)
     print("\n".join(lines))
     for f in files:
-        print(f"wrote {f}", file=sys.stderr)
+        print(f"wrote {out / f.name}", file=sys.stderr)
     return 0

@@ -22,19 +22,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 
+from ..core.budget import deadline_passed, limit_text
 from ..core.errors import InputError, InputTypeError, ParameterOutOfDomain
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.status import BranchStatus
 from ..model.system import HybridSystem
 from ..orbits.autonomous import AutonomousSolver, finish, resolve_phase
 from ..orbits.equilibria import Equilibrium, equilibrium, locate_hopf
 from ..orbits.flowmap import FlowMap
 from ..orbits.orbit import ORBIT_OPTIONS, PeriodicOrbit
+from .autolocate import FAILURES, AutoPoint, Locator, locate_end
 from .branch import Branch
 from .palc import RETRY, follow
-from .special import SpecialPoint
+from .special import SpecialPoint, detect, locate
 
 __all__ = ["AUTONOMOUS_CONTINUATION", "equilibrium_branch", "hopf_branch", "orbit_branch"]
 
@@ -65,6 +69,8 @@ def equilibrium_branch(
         ``"real-eigenvalue"`` for a real eigenvalue, located by
         :func:`hybrid.orbits.equilibria.locate_hopf`; its ``index`` is that equilibrium's).
         ``status`` is ``"completed"``; ``message`` counts the values without an equilibrium.
+        Inside a :func:`hybrid.time_limit` whose deadline passes, the values after it are not
+        computed: ``status`` ``"stopped"``, ``reason`` ``"budget"``.
 
     Raises
     ------
@@ -81,6 +87,8 @@ def equilibrium_branch(
     grid: list[Equilibrium] = []
     guess = x0
     for v in values:
+        if deadline_passed():  # the computation's deadline (hybrid.time_limit): stop at this value
+            break
         eq = equilibrium(system, {**params, parameter: float(v)}, mode, guess)
         grid.append(eq)
         if eq.converged:
@@ -91,6 +99,8 @@ def equilibrium_branch(
         b = grid[k + 1] if k + 1 < len(grid) else None
         if b is None or not (a.converged and b.converged):
             continue
+        if a.admissible != b.admissible:
+            branch.points.append(_boundary(system, params, mode, parameter, a, b, branch))
         ra, rb = a.eigenvalues[0].real, b.eigenvalues[0].real
         if ra * rb < 0:
             hp = locate_hopf(system, params, mode, parameter, (a.params[parameter], b.params[parameter]), a.x)
@@ -108,7 +118,71 @@ def equilibrium_branch(
     missing = sum(1 for e in grid if not e.converged)
     if missing:
         branch.message = f"no equilibrium found at {missing} of {len(grid)} values"
+    if len(grid) < values.size:
+        branch.status, branch.reason = BranchStatus.STOPPED, "budget"
+        branch.message = (
+            f"time limit reached ({limit_text()}) after {len(grid)} of {values.size} "
+            f"values of {parameter}" + (f"; {branch.message}" if branch.message else "")
+        )
     return branch
+
+
+#: Regula falsi on a boundary equilibrium's margin: iterations at most, and the bracket's width at
+#: which it is located (relative to ``max(1, |p|)``).
+BOUNDARY_ITER, BOUNDARY_TOL = 80, 1e-13
+
+
+def _boundary(system, params, mode: str, parameter: str, a, b, branch: Branch):
+    """The equilibrium where ``a``'s admissibility changes to ``b``'s (a guard of the mode reaches
+    zero there: a boundary equilibrium), by regula falsi (Illinois) on the margin
+    (:attr:`hybrid.Equilibrium.margin`, smooth in the parameter); the special point recorded on
+    ``branch``. Returns the equilibrium there."""
+    pa, pb = a.params[parameter], b.params[parameter]
+    fa, fb = a.margin, b.margin
+    best, side = (a if abs(fa) < abs(fb) else b), 0
+    for _ in range(BOUNDARY_ITER):
+        if abs(pb - pa) <= BOUNDARY_TOL * max(1.0, abs(pa)) or not fa * fb < 0:
+            break
+        p = (pa * fb - pb * fa) / (fb - fa)
+        w = pb - pa
+        p = min(max(p, min(pa, pb) + 1e-3 * abs(w)), max(pa, pb) - 1e-3 * abs(w))
+        e = equilibrium(system, {**params, parameter: p}, mode, best.x)
+        if not e.converged:
+            break
+        best, f = e, e.margin
+        if f == 0.0:
+            pa = pb = p
+            break
+        if f * fa > 0:
+            pa, fa = p, f
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        else:
+            pb, fb = p, f
+            if side == 1:
+                fa *= 0.5
+            side = 1
+    lo, hi = min(pa, pb), max(pa, pb)
+    ok = hi - lo <= BOUNDARY_TOL * max(1.0, abs(lo))
+    amp = {n: abs(float(x)) for n, x in zip(system.variable_names, best.x, strict=True)}
+    desc = (
+        f"the equilibrium of mode `{mode}` reaches a switching surface: it is "
+        f"{'not ' if a.admissible else ''}admissible beyond"
+    )
+    branch.special.append(
+        SpecialPoint(
+            "boundary-equilibrium",
+            len(branch.points),
+            best.params[parameter],
+            amp,
+            desc if ok else f"{desc}; not located to the tolerance",
+            "located" if ok else "bracketed",
+            max(abs(best.params[parameter] - lo), abs(hi - best.params[parameter])),
+            (lo, hi),
+        )
+    )
+    return best
 
 
 def _branch(
@@ -155,15 +229,13 @@ def _branch(
     branch = Branch("autonomous-orbits", fm.system, dict(fm.params), par)
     orbits = branch.points
 
-    def bracketed(kind: str, index: int, iv, desc: str) -> SpecialPoint:
-        lo, hi = min(iv), max(iv)
-        amp = dict(orbits[index].amplitude)
-        return SpecialPoint(kind, index, 0.5 * (lo + hi), amp, desc, "bracketed", 0.5 * (hi - lo), (lo, hi))
-
-    def accept(u, info):
+    def make_orbit(u, info):
         y, ev = info
         T = float(u[nd]) if anchored else ev.time
-        orbit = finish(solver, y, mode, T, ev, 0, 0.0, samples)
+        return finish(solver, y, mode, T, ev, 0, 0.0, samples)
+
+    def accept(u, info):
+        orbit = make_orbit(u, info)
         modes = frozenset(orbit.mode_sequence)
         changed = bool(orbits) and modes != state["modes"]
         if changed and (stop_on_mode_change or (state["modes"] - modes and stop_on_mode_loss)):
@@ -174,46 +246,36 @@ def _branch(
         if orbits and orbit.period > PERIOD_JUMP * orbits[-1].period:
             return "period jump"  # a switch missed at a grazing (or an orbit of another kind): not kept
         orbits.append(orbit)
-        if changed:
-            gained, lost = modes - state["modes"], state["modes"] - modes
-            kind, desc = (
-                ("mode-gained", f"mode(s) {', '.join(sorted(gained))} appear(s) in the orbit")
-                if gained
-                else ("mode-lost", f"mode(s) {', '.join(sorted(lost))} leave(s) the orbit")
-            )
-            iv = (orbits[-2].params[par], orbit.params[par])
-            branch.special.append(bracketed(kind, len(orbits) - 1, iv, desc))
-        state["modes"], state["T"] = modes, T
+        state["modes"], state["T"] = modes, orbit.period
         if anchored:
+            y = info[0]
             f = fm.field(mode, y)[d]
             state["anchor"] = (y.copy(), f / np.linalg.norm(f))
-        if len(orbits) >= 3:
-            p = [o.params[par] for o in orbits[-3:]]
-            if (p[1] - p[0]) * (p[2] - p[1]) < 0:
-                desc = "the branch turns back in the parameter (a multiplier crosses +1)"
-                branch.special.append(bracketed("fold", len(orbits) - 2, (p[0], p[2]), desc))
         return None
 
-    _, why = follow(evaluate, u0, t0, settings, index=len(u0) - 1, p_range=p_range, accept=accept)
+    points, why = follow(evaluate, u0, t0, settings, index=len(u0) - 1, p_range=p_range, accept=accept)
+    pts = [AutoPoint(u, t, o) for (u, _, t), o in zip(points, orbits, strict=False)]
+    loc = Locator(evaluate, make_orbit, settings, fm)
+    tol = settings.locate_tol * abs(p_range[1] - p_range[0])
+    _special_points(branch, pts, loc, settings, tol)
     last = orbits[-1].params[par] if orbits else math.nan
     if orbits and (
         why == "boundary"
         or (why in ("stalled", "period jump") and guard_margin(fm, orbits[-1]) <= GRAZING_MARGIN)
     ):
+        sp, extra = locate_end(loc, pts, state["beyond"] if why == "boundary" else None, tol)
         k = len(orbits) - 1
-        if why == "boundary" and state["beyond"] is not None:
-            desc = "the orbit meets a switch it did not have, or a phase vanishes (a grazing)"
-            branch.special.append(bracketed("grazing", k, (last, state["beyond"]), desc))
+        if sp is None:
+            desc = "the branch ended with a guard within the grazing margin: a grazing just beyond the last orbit"
+            iv = (last, math.inf) if len(orbits) < 2 or last >= orbits[-2].params[par] else (-math.inf, last)
+            sp = SpecialPoint(
+                "grazing", k, last, dict(orbits[k].amplitude), desc, "not located", math.inf, iv
+            )
         else:
-            desc = (
-                "the branch stalled with a guard within the grazing margin: a grazing just beyond the last "
-                "orbit, not located"
-            )
-            amp = dict(orbits[k].amplitude)
-            branch.special.append(
-                SpecialPoint("grazing", k, last, amp, desc, "bracketed", math.nan, (last, last))
-            )
-        branch.stop("grazing", f"stopped at {par}={last:.8g}: {desc}")
+            orbits.extend(extra)
+            sp = replace(sp, index=k + sp.index)
+        branch.special.append(sp)
+        branch.stop("grazing", f"stopped at {par}={last:.8g}: {sp.description}")
     elif why == "stalled" and not orbits:
         branch.stop("no-start", "no first orbit: the corrector failed at the start")
     elif why == "stalled":
@@ -232,6 +294,50 @@ def _branch(
     else:  # "range"
         branch.message = f"left the range at {par}={last:.8g}"
     return branch
+
+
+def _special_points(branch: Branch, pts: list, loc: Locator, settings, tol: float) -> None:
+    """Detect the special points between consecutive points of an autonomous branch and locate
+    them (:func:`hybrid.continuation.special.locate` on the branch's corrector); the orbit at each
+    located point is inserted into ``branch.points`` after the step's first orbit."""
+    if len(pts) < 2:
+        return
+    st = replace(settings, locate_tol=tol)  # (locate takes it relative to the continuer's scale, 1)
+    out, special = [pts[0].orbit], []
+    for a, b in zip(pts, pts[1:], strict=False):
+        ds = float(a.tangent @ (b.u - a.u))
+        found = detect(a, b) if ds > 0 else []
+        located = []
+        for kind, desc in found:
+            if kind == "nonsmooth":
+                located.append((kind, desc, None))
+                continue
+            located.append((kind, desc, locate(loc, a, b, kind, ds, st, FAILURES)))
+        for kind, desc, lc in located:
+            if lc is None:
+                prev = next((x for x in reversed(located) if x[2] is not None), None)
+                lc = prev[2] if prev else None
+            if lc is None:
+                k = len(out)
+                lo, hi = sorted((a.p, b.p))
+                p, acc, iv, status = 0.5 * (lo + hi), 0.5 * (hi - lo), (lo, hi), "bracketed"
+            else:
+                if lc.point is None or lc.point is b:
+                    k = len(out)  # b, appended below
+                elif lc.point is a:
+                    k = len(out) - 1
+                else:
+                    out.append(lc.point.orbit)
+                    k = len(out) - 1
+                p, acc, iv, status = lc.parameter, lc.accuracy, lc.interval, lc.status
+                if lc.note:
+                    desc = f"{desc}; {lc.note}"
+            special.append((kind, k, p, desc, status, acc, iv))
+        out.append(b.orbit)
+    branch.points[:] = out
+    for kind, k, p, desc, status, acc, iv in special:
+        k = min(k, len(out) - 1)
+        branch.special.append(SpecialPoint(kind, k, p, dict(out[k].amplitude), desc, status, acc, iv))
 
 
 #: A point whose period exceeds this multiple of its predecessor's ends the branch.

@@ -149,8 +149,9 @@ def orbit_row(parameter: str, o: PeriodicOrbit) -> dict:
         else float("nan"),
         "residual": o.residual,
     }
-    for m in o.system.mode_names:  # every mode, so that all rows have the same columns
-        row[f"fraction_{m}"] = o.mode_fractions.get(m, 0.0)
+    fractions = o.local_fractions
+    for m in o.system.local_mode_names:  # every mode, so that all rows have the same columns
+        row[f"fraction_{m}"] = fractions.get(m, 0.0)
     for n, v in o.amplitude.items():
         row[f"amplitude_{n}"] = v
     for n, v in o.half_peak_to_peak.items():

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -44,8 +45,10 @@ from ..orbits.orbit import (
     PeriodicOrbit,
     balance_scales,
     balanced,
+    family_dimension,
     finish_orbit,
     is_family,
+    local_fractions,
     mode_fractions,
 )
 from ..orbits.section import choose_section_period
@@ -58,15 +61,21 @@ __all__ = ["SpecialPoint", "continue_orbits"]
 
 _FAILURES = (ArithmeticError, RuntimeError, np.linalg.LinAlgError)
 
+#: How much tighter (rtol and atol) the rerun of a probe is that estimates the integration error of
+#: its phases (:meth:`_Continuer.rerun`).
+TIGHTER = 100.0
+
 
 # ----------------------------------------------------------------------
 class _Summary:
     """What a located mode change needs of an orbit not finished yet: its run (events, mode
     intervals) and the time fraction of each mode."""
 
-    def __init__(self, tr, period: float):
+    def __init__(self, tr, period: float, system):
         self.trajectory = tr
+        self.system = system
         self.mode_fractions = mode_fractions(tr, period)
+        self.local_fractions = local_fractions(system, self.mode_fractions)
 
 
 class _Point:
@@ -83,6 +92,7 @@ class _Point:
         self.iterations = iterations
         self.make = None  # builds the orbit of a light point
         self.summary = None  # _Summary of a light point
+        self.jump = 0.0  # the corrector's distance from the predictor, relative to the step
 
     @property
     def orbit(self) -> PeriodicOrbit | None:
@@ -106,9 +116,15 @@ def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: in
     its parameter value."""
     starts = [(pt, ds)]
     g = c.sh.gauge(new.y)
-    if g is not None and float(g[1] @ g[1]) > 0.0:
+    if g is not None and np.any(g.grad != 0.0):
         c.at(new.p)
-        y = new.y - g[0] * g[1] / float(g[1] @ g[1])
+        # the least change of the state that zeroes every gauge (to first order)
+        G = g.grad
+        y = new.y - (
+            g.values[0] * G[0] / float(G[0] @ G[0])
+            if g.size == 1
+            else np.linalg.lstsq(G, g.values, rcond=None)[0]
+        )
         starts.append((_Point(y, new.p, new.mode, new.phi, tangent=new.tangent), 0.0))
     for start, step in starts:
         try:
@@ -121,7 +137,9 @@ def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: in
 
 
 class _Continuer:
-    def __init__(self, system, params, parameter, p_range, options, settings: ContinuationOptions):
+    def __init__(
+        self, system, params, parameter, p_range, options, settings: ContinuationOptions, periods: int = 1
+    ):
         self.system = system
         self.parameter = parameter
         self.base = dict(params)
@@ -129,11 +147,13 @@ class _Continuer:
         self.sp = abs(self.b - self.a)
         self.settings = settings
         self.tol = settings.newton.tol
-        self.sh = Shooter(system, params, options, free=parameter)
+        self.sh = Shooter(system, params, options, free=parameter, periods=periods)
         # The map at a looser tolerance for the iterations that cannot be accepted (IDA only).
         self.coarse = coarse_shooter(self.sh, self.tol)
         self._coarse_jac = True  # the Newton system last seen fit for a coarse M (see correct)
         self.bs: np.ndarray | None = None  # balancing scales of the state, from the first point
+        self.tight: Shooter | None = None  # the map at tighter tolerances (see rerun)
+        self._frame = None  # (d, D) of coords
 
     def at(self, p: float) -> None:
         params = {**self.base, self.parameter: p}
@@ -171,16 +191,17 @@ class _Continuer:
         rhs = -r
         g = self.sh.gauge(y)
         gval = None
-        if family and g is not None:
-            row, gval = g[1][d], g[0]
+        picked = g.pick(vt, max(1, family_dimension(sv)), d, bs) if (family and g is not None) else None
+        if picked is not None and picked.size:
+            rows, gval = g.grad[picked][:, d], g.values[picked]
         elif family and is_family(np.linalg.svd(A / bs[:, None], compute_uv=False)):
             # a family: [I - M, dP/dp] is rank-deficient too (at a fold only I - M is, and the
             # branch moves along that null vector: nothing may hold it there)
             row = vt[-1] / bs
-            gval = float(row @ (y[d] - (y if ref is None else ref)[d]))
+            rows, gval = row[None, :], np.array([float(row @ (y[d] - (y if ref is None else ref)[d]))])
         if gval is not None:
-            A = np.vstack([A, np.concatenate([row, [0.0]])])
-            rhs = np.concatenate([rhs, [-gval]])
+            A = np.vstack([A, np.hstack([rows, np.zeros((rows.shape[0], 1))])])
+            rhs = np.concatenate([rhs, -gval])
         return A, rhs, family, gval
 
     def correct(
@@ -190,12 +211,16 @@ class _Continuer:
         samples: int,
         force_gauge: bool = False,
         light: bool = False,
+        polish: bool = False,
     ) -> _Point:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
         Returns the converged point with its orbit and tangent (from the orbit's own Jacobian);
         ``light``: without them (no sampled run, no amplitudes) until its ``orbit`` is asked for
-        (e.g. the probes that locate a mode change, of which only one is kept).
+        (e.g. the probes that locate a mode change, of which only one is kept). ``polish``: the
+        converged point takes one more Newton step where that decreases the residual (a point
+        accepted at ``tol`` may lie 1e-9 off, which moves a grazing by 1e-12 on the absorber: the
+        probes that locate a special point on a noise-free map are polished).
         Damped Newton: an iterate whose residual is larger than the last one's is replaced by a
         shorter step (down to 1/16); if none decreases the residual the step fails (a worse
         iterate is never kept). Converged: residual below ``tol`` and the scaled update below
@@ -222,6 +247,7 @@ class _Continuer:
         y[d] = Xp[:-1]
         p = float(Xp[-1])
         it, prev, lam = 0, None, 1.0
+        saved = None  # the accepted point while it is polished
         # Coarse runs and runs with samples ahead of acceptance only on a model with a gauge: without
         # one a family of orbits is held by its own direction, from the member nearest the last
         # point, which may graze a guard; a run of another accuracy or with samples (other steps)
@@ -245,10 +271,14 @@ class _Continuer:
             else:
                 tr = self.sh.run(y, pt.mode, t0, samples=samples)
             if not tr.success:
+                if saved is not None:
+                    return saved
                 raise _Fail(f"run failed at {self.parameter}={p:.8g}: {tr.message}", "run-failed", tr.status)
             r = nw.residual(tr, y)
             scale = state_scale(y, d)
             res = float(np.max(np.abs(r))) / scale
+            if saved is not None and (res > prev[2] or tr.mode_final != pt.mode):
+                return saved  # the polishing step did not help: the point as accepted
             if staged and (res <= COARSE_SWITCH * COARSE_RTOL or scale > 1e3 * max(sy, 1e-300)):
                 staged = False  # near the coarse map's noise (or far off): the requested map here
                 continue
@@ -295,7 +325,7 @@ class _Continuer:
                     self._coarse_jac = fit  # the conditioning last seen
                 if src is self.sh or fit:
                     break
-            gauge_ok = gval is None or abs(gval) <= self.tol * scale
+            gauge_ok = gval is None or float(np.max(np.abs(gval))) <= self.tol * scale
             delta = np.linalg.lstsq(Ab, rhs, rcond=1e-10)[0]
             # Converged: small residual and a Newton update at the noise level of the map
             # (integration error amplified by the conditioning of the bordered system).
@@ -311,15 +341,30 @@ class _Continuer:
                     raise _Fail("section reached a switch", "section-switch")
                 new = _Point(y, p, pt.mode, pt.phi, iterations=it)
                 new.tangent = self.null_vector(A, D, tau)
+                # how far the corrector moved from the predictor, relative to the step (a jump
+                # onto another branch that crosses this one is far larger than the turn of a step)
+                new.jump = float(np.linalg.norm((np.concatenate([y[d], [p]]) - Xp) / D)) / max(
+                    abs(ds), 1e-300
+                )
                 if light:
-                    new.summary = _Summary(tr, T)
+                    new.summary = _Summary(tr, T, self.system)
                     new.make = partial(self.complete, new, nw, t0, it, res, samples, M)
                 else:
                     new.orbit = finish_orbit(
                         self.sh, nw, y, pt.mode, t0, it, res, self.tol, samples, "", tr=tr, M=M
                     )
+                if polish and saved is None and res > 0.0:
+                    saved = new  # one more step from it (kept if that does not help)
+                    prev, lam = (y.copy(), p, res, delta), 1.0
+                    y = y.copy()
+                    y[d] += delta[:-1]
+                    p = float(p + delta[-1])
+                    staged = ahead = False
+                    continue
                 return new
             if it == max_iter:
+                if saved is not None:
+                    return saved
                 break
             it += 1
             ahead = gauged and bool(samples) and not light and not staged and res <= SAMPLE_AHEAD
@@ -345,6 +390,48 @@ class _Continuer:
         if tr is None or not tr.success or not np.all(np.isfinite(tr.y_final)):
             return None
         return tr
+
+    def between(self, q1: _Point, q2: _Point, lam: float) -> _Point:
+        """The point ``lam`` of the way along the chord from ``q1`` to ``q2`` (same section), with the
+        chord's direction as its tangent: :meth:`correct` from it with ``ds = 0`` corrects on the
+        chord's normal hyperplane there."""
+        y = q1.y + lam * (q2.y - q1.y)
+        p = q1.p + lam * (q2.p - q1.p)
+        nw = NewtonMap(self.sh, q1.mode)
+        D = self.scales(q1, nw.d)
+        t = (np.concatenate([q2.y[nw.d] - q1.y[nw.d], [q2.p - q1.p]])) / D
+        pt = _Point(y, p, q1.mode, q1.phi, tangent=t / max(float(np.linalg.norm(t)), 1e-300))
+        return pt
+
+    def coords(self, pt: _Point) -> np.ndarray:
+        """``pt``'s section state and parameter in the scaled units of the branch's first point
+        that gets here (to compare points of one step: see :func:`hybrid.continuation.special.locate`)."""
+        nw = NewtonMap(self.sh, pt.mode)
+        if self._frame is None or self._frame[0].size != nw.d.size:
+            self._frame = (nw.d, self.scales(pt, nw.d))
+        d, D = self._frame
+        return np.concatenate([pt.y[d], [pt.p]]) / D
+
+    def rerun(self, pt: _Point, factor: float = TIGHTER) -> _Summary | None:
+        """The run from ``pt``'s section state at tolerances ``factor`` times tighter (IDA), as a
+        summary (events, mode fractions): the difference of its phases from ``pt``'s estimates
+        their integration error. None on the exact integrator, or if the run fails."""
+        if self.sh.integrator.exact:
+            return None
+        if self.tight is None:
+            o = self.sh.options
+            atol = (
+                {k: v / factor for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol / factor
+            )
+            opts = replace(o, rtol=o.rtol / factor, atol=atol, atol_default=o.atol_default / factor)
+            self.tight = Shooter(self.system, self.sh.params, opts, None, self.sh.periods)
+        self.at(pt.p)
+        self.tight.set_params({**self.base, self.parameter: pt.p})
+        try:
+            tr = self.tight.run(pt.y, pt.mode, pt.phi * self.sh.period)
+        except _FAILURES:
+            return None
+        return _Summary(tr, self.tight.period, self.system) if tr.success else None
 
     def complete(self, pt: _Point, nw, t0: float, it: int, res: float, samples: int, M) -> PeriodicOrbit:
         """The orbit of a light point: its sampled run and amplitudes (the monodromy ``M`` is known)."""
@@ -468,6 +555,8 @@ def continue_orbits(
     *,
     x0=None,
     mode0: str | None = None,
+    t0: float = 0.0,
+    periods: int = 1,
     options: SolverOptions | None = None,
     settings: ContinuationOptions | None = None,
     progress: Progress | None = None,
@@ -489,6 +578,12 @@ def continue_orbits(
         Start and end value; the branch stops when it leaves the range.
     x0, mode0 : optional
         Guess of the first orbit (see :func:`hybrid.periodic_orbit`).
+    t0 : float
+        Time of the guess [s] (a state of a computed orbit at its ``t0``: with
+        ``settings.transient_periods = 0`` Newton's method starts from it).
+    periods : int
+        Forcing periods of the orbits (2: the branch of orbits of twice the forcing period, e.g.
+        born at a period doubling, :func:`hybrid.switch_branch`).
     options : SolverOptions, optional
         Tolerances of the runs (default :data:`hybrid.ORBIT_OPTIONS`).
     settings : ContinuationOptions, optional
@@ -540,12 +635,16 @@ def continue_orbits(
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
         raise InputError(f"`p_range` must be two different finite numbers, got {p_range!r}")
     start_params = system.parameter_values({**dict(params), parameter: a})
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
     y0 = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
-    c = _Continuer(system, start_params, parameter, (a, b), options, settings)
+    if not (isinstance(periods, int) and not isinstance(periods, bool) and periods >= 1):
+        raise InputError(f"`periods` must be an integer >= 1, got {periods!r}")
+    if not math.isfinite(float(t0)):
+        raise InputError(f"`t0` must be a finite time, got {t0!r}")
+    c = _Continuer(system, start_params, parameter, (a, b), options, settings, periods)
     for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
         c.at(p)
         n = settings.transient_periods + 1 if p == a else 2
@@ -564,7 +663,7 @@ def continue_orbits(
             c.sh,
             y0,
             mode0,
-            0.0,
+            float(t0),
             settings.transient_periods,
             settings.newton.tol,
             FIRST_ORBIT_MAX_ITER,
@@ -577,8 +676,9 @@ def continue_orbits(
     return branch
 
 
-def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progress) -> None:
-    """Follow the branch from its first orbit (see :func:`continuation`)."""
+def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progress, orient=None) -> None:
+    """Follow the branch from its first orbit (see :func:`continuation`); ``orient``: a scaled
+    direction the first tangent points along (default: the parameter's ``direction``)."""
     st = c.settings
     parameter = c.parameter
     a, b = c.a, c.b
@@ -600,13 +700,13 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             "periodic: is the system forced at all?)",
         )
         return
-    pt = _Point(first.x0.copy(), a, first.mode0, first.t0 / first.period, orbit=first)
+    pt = _Point(first.x0.copy(), first.params[parameter], first.mode0, first.t0 / first.period, orbit=first)
     try:
-        pt.tangent = c.tangent(pt, None, direction)
+        pt.tangent = c.tangent(pt, orient, direction)
         if not first.converged:
             pt = c.correct(pt, 0.0, samples)
             first = pt.orbit
-            pt.tangent = c.tangent(pt, None, direction)
+            pt.tangent = c.tangent(pt, orient, direction)
     except (_Fail, *_FAILURES) as exc:
         if not first.converged:
             stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}; {exc}")

@@ -13,18 +13,19 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import signal
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.budget import current_deadline, deadline_passed
+from ..core.budget import current_deadline, deadline_passed, limit_text
 from ..core.budget import restore_deadline as _deadline
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus, ResponseStatus
+from ..core.workers import die_with_parent
 from ..model.linear import natural_frequencies
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem, shared
@@ -129,6 +130,9 @@ class FrequencyResponse:
         (``"time-limit"``: the deadline of :func:`hybrid.time_limit` passed and what was not
         computed is a gap; ``"gaps"``; ``"empty-branch"``); ``""`` if complete.
         :meth:`messages` says the same in words.
+    limit : str
+        Where the deadline in force came from (e.g. ``"hybrid.time_limit; CLI --max-time"``),
+        named by :meth:`messages` when it stopped the computation.
     """
 
     system: HybridSystem
@@ -139,6 +143,8 @@ class FrequencyResponse:
     pieces: list = field(default_factory=list)
     status: ResponseStatus = ResponseStatus.COMPLETE
     reason: str = ""
+    #: Where the deadline that stopped it comes from (:func:`hybrid.core.budget.limit_text`).
+    limit: str = "hybrid.time_limit; CLI --max-time"
 
     @property
     def branches(self) -> list[Branch]:
@@ -151,7 +157,9 @@ class FrequencyResponse:
         return [g for pc in self.pieces for g in pc.gaps]
 
     def conclude(self) -> None:
-        """Set :attr:`status` and :attr:`reason` from the pieces."""
+        """Set :attr:`status` and :attr:`reason` from the pieces (and :attr:`limit` from the deadline in
+        force)."""
+        self.limit = limit_text()
         if any(pc.timed_out for pc in self.pieces):
             self.status, self.reason = ResponseStatus.INCOMPLETE, "time-limit"
         elif self.gaps:
@@ -172,7 +180,7 @@ class FrequencyResponse:
             f"no periodic orbit computed for {self.parameter} in ({a:.8g}, {b:.8g})" for a, b in self.gaps
         ]
         if self.reason == "time-limit":
-            out.append("time limit reached (hybrid.time_limit; CLI --max-time): the gaps were not computed")
+            out.append(f"time limit reached ({self.limit}): the gaps were not computed")
         return out
 
     @property
@@ -442,7 +450,7 @@ _WORKER: dict = {}
 def _worker_main(index: int, a: float, b: float, w: float | None, deadline) -> None:
     """A forked worker: piece ``index``; its progress, its orbits and then the piece (or the error
     that stopped it) sent to the parent."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on an interrupt
+    die_with_parent(_WORKER["parent"])  # ends with the parent; the parent stops it on an interrupt
     job, queue = _WORKER["job"], _WORKER["queue"]
     try:
         with _deadline(deadline):
@@ -467,7 +475,7 @@ def _parallel(
     ctx = multiprocessing.get_context("fork")
     queue = ctx.SimpleQueue()
     shared(job.system)  # the workers' results refer to it
-    _WORKER.update(job=job, queue=queue)
+    _WORKER.update(job=job, queue=queue, parent=os.getpid())
     pieces: list[Piece | None] = [None] * len(cuts)
     held: list[list] = [[] for _ in cuts]  # orbits of pieces whose predecessors are not done
     frac = [0.0] * len(cuts)

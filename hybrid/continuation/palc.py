@@ -17,7 +17,7 @@ import numpy as np
 from ..core.errors import GrazingSwitchError
 from ..core.options import ContinuationOptions
 
-__all__ = ["follow", "RETRY"]
+__all__ = ["follow", "correct_point", "tangent", "RETRY"]
 
 #: What ``accept`` returns for a point that lies beyond a boundary of the branch (e.g. where the
 #: solution changes kind): it is discarded and approached with half the step, down to ``ds_min``
@@ -70,7 +70,8 @@ def follow(
 
     Returns
     -------
-    points : list of (ndarray, info)
+    points : list of (ndarray, info, ndarray)
+        Each point, what ``evaluate`` said of it, and the unit tangent there.
     reason : str
         ``"range"``, ``"max_points"``, ``"stalled"``, ``"boundary"`` or the reason given by ``accept``.
     """
@@ -81,7 +82,7 @@ def follow(
     ds = 0.0  # the start: corrected on its own hyperplane
     lo, hi = p_range
     while len(points) < st.max_points:
-        got = _correct(evaluate, u + ds * t, t, st)
+        got = correct_point(evaluate, u + ds * t, t, st)
         if got is None:
             if ds == 0.0:
                 return points, "stalled"
@@ -98,7 +99,7 @@ def follow(
             continue
         t = tangent(J, t)
         u = u_new
-        points.append((u.copy(), info))
+        points.append((u.copy(), info, t.copy()))
         if not lo <= u[index] <= hi:
             return points, "range"
         if why:
@@ -107,15 +108,16 @@ def follow(
     return points, "max_points"
 
 
-def _correct(evaluate, u, t, st: ContinuationOptions):
-    """Newton's method on ``[F(u); t . (u - u_pred)]``; ``(u, J, info, iterations)`` or None."""
+def correct_point(evaluate, u, t, st: ContinuationOptions):
+    """Newton's method on ``[F(u); t . (u - u_pred)]`` from ``u_pred = u``; ``(u, J, info,
+    iterations)`` or None (a failed evaluation, a parameter outside its domain, no convergence)."""
     u_pred = u.copy()
     tol = st.newton.tol
     for it in range(st.newton.max_iter):
         try:
             F, J, info = evaluate(u)
-        except (RuntimeError, GrazingSwitchError, ZeroDivisionError, np.linalg.LinAlgError):
-            return None
+        except (RuntimeError, ValueError, GrazingSwitchError, ZeroDivisionError, np.linalg.LinAlgError):
+            return None  # (ValueError: a parameter outside its domain, e.g. a negative belt speed)
         if not np.all(np.isfinite(F)):
             return None
         A = np.vstack([J, t])

@@ -18,9 +18,10 @@ from contextvars import ContextVar
 
 from .errors import BudgetExceeded, InputError
 
-__all__ = ["time_limit", "Budget", "deadline_passed"]
+__all__ = ["time_limit", "Budget", "deadline_passed", "limit_text"]
 
-_DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("hybrid_deadline", default=None)
+#: The deadline in force: (clock time, seconds of its time_limit, the option that set it).
+_DEADLINE: ContextVar[tuple[float, float, str] | None] = ContextVar("hybrid_deadline", default=None)
 
 #: A run that has used this fraction of its step budget (and at least PROJECTION_MIN residual
 #: evaluations: a start is slow) is stopped early if, at its rate so far, it needs more than
@@ -33,13 +34,21 @@ _clock = time.monotonic  # module-level so that tests can drive it
 
 
 @contextmanager
-def time_limit(seconds: float) -> Iterator[None]:
+def time_limit(seconds: float, option: str = "--max-time") -> Iterator[None]:
     """Deadline for every integration started inside the block (nested limits: the earliest wins).
 
     A run that reaches it stops with ``Status.TIME_LIMIT``; :func:`hybrid.periodic_orbit`
     returns a failed orbit (``reason`` ``"budget"``), a continuation branch stops (``reason``
     ``"budget"``), and :func:`hybrid.continuation.frc.frequency_response` returns what it has
     (``reason`` ``"time-limit"``), each with the details in its message.
+
+    Parameters
+    ----------
+    seconds : float
+        From now [s], finite and > 0.
+    option : str
+        The command-line option that sets this limit, named in the messages of the runs it stops
+        (default ``"--max-time"``; a sweep's per-point limit is ``"--point-time-limit"``).
 
     Examples
     --------
@@ -55,21 +64,31 @@ def time_limit(seconds: float) -> Iterator[None]:
         raise InputError(f"`time_limit` needs a finite number of seconds > 0, got {seconds!r}")
     deadline = _clock() + float(seconds)
     outer = _DEADLINE.get()
-    token = _DEADLINE.set((deadline, float(seconds)) if outer is None or deadline < outer[0] else outer)
+    token = _DEADLINE.set(
+        (deadline, float(seconds), option) if outer is None or deadline < outer[0] else outer
+    )
     try:
         yield
     finally:
         _DEADLINE.reset(token)
 
 
-def current_deadline() -> tuple[float, float] | None:
-    """The deadline in force here, ``(clock time, seconds of its time_limit)``, or None (to be set
+def limit_text(deadline: tuple | None = None) -> str:
+    """Where the deadline in force (or ``deadline``) comes from, for messages:
+    ``"hybrid.time_limit; CLI --max-time"``."""
+    d = _DEADLINE.get() if deadline is None else deadline
+    option = d[2] if d is not None and len(d) > 2 else "--max-time"
+    return f"hybrid.time_limit; CLI {option}"
+
+
+def current_deadline() -> tuple[float, float, str] | None:
+    """The deadline in force here, ``(clock time, seconds of its time_limit, its option)``, or None (to be set
     again in a worker process with :func:`restore_deadline`)."""
     return _DEADLINE.get()
 
 
 @contextmanager
-def restore_deadline(deadline: tuple[float, float] | None) -> Iterator[None]:
+def restore_deadline(deadline: tuple[float, float, str] | None) -> Iterator[None]:
     """The deadline ``deadline`` (from :func:`current_deadline`) in force inside the block (the
     clock is the system's monotonic clock, shared by forked processes)."""
     token = _DEADLINE.set(deadline)
@@ -105,6 +124,7 @@ class Budget:
         self.command = cmd is not None and cmd[0] < own
         self.deadline = cmd[0] if self.command else own
         self.command_seconds = cmd[1] if cmd is not None else None
+        self.command_option = cmd[2] if cmd is not None else "--max-time"
         self.t0, self.t1 = float(t0), float(t1)
         self.used = 0  # residual evaluations charged so far (by callers that keep the count here)
 
@@ -122,8 +142,8 @@ class Budget:
             if self.command:
                 msg = (
                     f"time limit reached: the computation's limit of {self.command_seconds:g} s "
-                    f"(hybrid.time_limit; CLI --max-time) ran out {self._where(t)}{where}; "
-                    "give it more time (--max-time) or ask for less"
+                    f"(hybrid.time_limit; CLI {self.command_option}) ran out {self._where(t)}{where}; "
+                    f"give it more time ({self.command_option}) or ask for less"
                 )
             else:
                 msg = (

@@ -33,6 +33,8 @@ __all__ = [
     "ParameterOutOfDomain",
     "SampleCapReached",
     "WorkerError",
+    "OutputError",
+    "FolderInUse",
 ]
 
 
@@ -131,3 +133,18 @@ class SampleCapReached(HybridError):
 class WorkerError(HybridError, RuntimeError):
     """A worker process of a parallel computation failed (its exception's type and message are in
     this one's) or ended without a result; a :class:`RuntimeError`."""
+
+
+class OutputError(HybridError, OSError):
+    """Writing a result failed (a full disk, no permission, a read-only file system, a folder where
+    a file goes, ...): an :class:`OSError` whose message is one line naming the path, the cause and
+    what to do (:func:`hybrid.core.files.os_error_text`); ``errno`` is the cause's."""
+
+    def __init__(self, message: str, code: int | None = None):
+        super().__init__(message)
+        self.errno = code
+
+
+class FolderInUse(InputError):
+    """Another run holds the lock of the output folder (:class:`hybrid.core.files.FolderLock`):
+    refused before any computation, as bad input is (a :class:`ValueError`)."""

@@ -115,7 +115,8 @@ class SolverOptions:
         (independent of the time span).
     max_chain : int
         Transitions allowed at one instant (chained switches) before the run
-        stops with "no admissible mode".
+        stops with "no admissible mode"; for a system with components, this many
+        per component and as many again.
     taylor_order : int
         Order of the Taylor series used to decide the successor mode at a
         switch where a guard of the new mode starts at zero.

@@ -37,6 +37,8 @@ __all__ = [
     "RESPONSE_REASONS",
     "POINT_REASONS",
     "TRAJECTORY_REASONS",
+    "LocateStatus",
+    "SPECIAL_KINDS",
 ]
 
 
@@ -149,4 +151,43 @@ TRAJECTORY_REASONS = {
     "steps": "Status.STEP_LIMIT: SolverOptions.max_steps residual evaluations were used",
     "projected": "Status.STEP_LIMIT: at its rate so far the run would need several times max_steps",
     "time": "Status.TIME_LIMIT: the wall-clock budget or the computation's deadline ran out",
+}
+
+
+class LocateStatus(StrEnum):
+    """How well a :class:`hybrid.SpecialPoint` is known. Its ``interval`` holds the point in every
+    case (of the branch as computed: the runs' integration error moves it further, which the exact
+    integrator or a tighter ``rtol`` removes)."""
+
+    #: ``parameter`` is within ``accuracy`` of the point, to the tolerance asked for
+    #: (``ContinuationOptions.locate_tol``).
+    LOCATED = "located"
+    #: The point lies in ``interval``, which is wider than the tolerance (``description`` says why).
+    BRACKETED = "bracketed"
+    #: Only a side is known: ``interval`` is half-infinite (e.g. a branch that ended short of a
+    #: grazing it could not reach).
+    UNLOCATED = "not located"
+
+
+#: The kinds of :class:`hybrid.SpecialPoint`: smooth bifurcations of periodic orbits, changes of
+#: an orbit's switching (discontinuity-induced), ends of branches, and points of equilibria.
+SPECIAL_KINDS = {
+    "fold": "the branch turns back in the parameter (a multiplier crosses +1; a saddle-node)",
+    "period-doubling": "a multiplier crosses -1 (a flip): an orbit of twice the period branches off",
+    "neimark-sacker": "a complex pair of multipliers crosses the unit circle (a torus branches off)",
+    "branch-point": "a multiplier crosses +1 without a fold: another branch of orbits of the same period "
+    "crosses this one (a pitchfork, e.g. symmetry breaking, or a transcritical point)",
+    "mode-gained": "a mode is occupied for a positive time on one side and not on the other: a phase "
+    "(e.g. sticking or sliding) sets in",
+    "mode-lost": "the same, the phase ends (the point is where its duration reaches zero)",
+    "grazing": "the orbit's number of switches per period changes with the same modes occupied (a phase "
+    "appears inside another, or an orbit touches a switch it does not take)",
+    "sequence-change": "the cyclic order of the modes changes with the same modes and number of switches",
+    "nonsmooth": "multipliers jump across -1 or the unit circle at a change of the mode sequence (the map "
+    "is only piecewise smooth there: no smooth bifurcation is claimed)",
+    "unbounded": "the response grows without bound beyond the branch's last orbit (its end)",
+    "hopf": "a complex pair of an equilibrium's eigenvalues crosses the imaginary axis",
+    "real-eigenvalue": "a real eigenvalue of an equilibrium crosses zero",
+    "boundary-equilibrium": "an equilibrium of a mode reaches one of the mode's switching surfaces: beyond "
+    "it the equilibrium is not admissible",
 }

@@ -107,12 +107,19 @@ class Run:
         self.careful: dict[int, FlowSolver] = {}  # solvers with a small first step (see segment)
         self.budget: Budget | None = None
         self.events: list[TransitionRecord] = []
-        self.recent = deque(maxlen=options.zeno_count)
+        # a burst counts this many switches (per component of a composed system: contacts may switch
+        # together at one instant)
+        self.recent = deque(maxlen=options.zeno_count * (1 + len(cs.system.components)))
         self.nfev = self.njev = self.n_steps = 0
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
+        # Switches at one instant: each component of a composed system may switch in one chain (a
+        # symmetric chain of contacts sticks all at once), a few times each.
+        self.max_chain = options.max_chain * (1 + len(cs.system.components))
         self.with_outputs = with_outputs  # evaluate the outputs (samples, start and final values)
+        quad = set(cs.system.quadratures)  # the variables that are not quadratures (for noise)
+        self.dynamic = np.array([i for i, n in enumerate(cs.names) if n not in quad], dtype=int)
 
     # ------------------------------------------------------------------
     def solver(self, mode: int, careful: bool = False) -> FlowSolver:
@@ -127,10 +134,19 @@ class Run:
             )
         return s
 
-    def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
-        grad, _ = cm.guard_gradient(k, t, y)
+    def noises(self, cm, t: float, y: np.ndarray) -> np.ndarray | None:
+        """The noise level of every guard of ``cm`` at once (see :meth:`noise`), where the mode
+        offers it in one call (a mode of a system with components); else None."""
+        fn = getattr(cm, "guard_noise_scale", None)
+        if fn is None:
+            return None
         scale = self.atol + self.opt.rtol * np.abs(y)
-        return self.opt.guard_noise * float(np.abs(grad) @ scale) + 1e-14
+        return self.opt.guard_noise * fn(t, y, scale) + 1e-14
+
+    def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
+        grad, ht = cm.guard_gradient(k, t, y)
+        size = float(np.max(np.abs(y[self.dynamic]))) if self.dynamic.size else 0.0
+        return self.integ.guard_noise(self.opt, self.atol, grad, ht, t, y, size)
 
     def record(self, t: float, y: np.ndarray, mode: int) -> None:
         # completed switches go to the recorder first: no switch is pending while a sample is taken
@@ -147,10 +163,9 @@ class Run:
         out = {o: np.empty(t.size) for o in self.cs.system.outputs}
         if not out:
             return out
-        for k, cm in enumerate(self.cs.modes):
+        for k in np.unique(m).tolist():
+            cm = self.cs.modes[k]
             idx = np.flatnonzero(m == k)
-            if not idx.size:
-                continue
             vals = cm.outputs_at(t[idx], y[idx])
             if vals is not None:
                 for o, v in zip(out, vals, strict=True):
@@ -189,6 +204,18 @@ class Run:
         except AlgebraicSolveError as exc:
             raise _Stop(Status.ALGEBRAIC_FAILED, str(exc)) from None
 
+    def _independent(self, name: str, fired: list[str], after_switch: bool) -> bool:
+        """Whether the transition ``name``, due at the instant of the switches ``fired`` (and of
+        the logged switch that led here, if ``after_switch``), belongs to a component none of
+        them belongs to (a system without components: never)."""
+        if not self.cs.system.composed:
+            return False
+        before = list(fired)
+        if after_switch and self.events:
+            before.append(self.events[-1].guard)
+        part = name.split(".", 1)[0] if "." in name else ""
+        return all((f.split(".", 1)[0] if "." in f else "") != part for f in before)
+
     # ------------------------------------------------------------------
     def enter(self, mode: int, t: float, y: np.ndarray, after_switch: bool):
         """Consistent state in ``mode`` at ``t``, following switches the vector fields force.
@@ -197,6 +224,8 @@ class Run:
         ``disarmed`` mapping guard index to the safe sign reported to the solver while it is disarmed.
         """
         visited: list[tuple[int, np.ndarray]] = []
+        states: dict[int, list[np.ndarray]] = {}  # the states each mode of the chain was entered with
+        fired: list[str] = []  # the transitions of the chain
         unresolved: list[str] = []  # switches of the chain decided within a guard's noise level
         pending = len(self.events) - 1 if after_switch else None
         while True:
@@ -211,24 +240,35 @@ class Run:
             vals = cm.guard_values(t, y)
             fire, disarmed = None, {}
             series_at = None  # the guards' Taylor series along the flow from (t, y), made if a guard needs it
-            for g in cm.guards:
+            etas = self.noises(cm, t, y)
+            if etas is None:
+                candidates = cm.guards
+            else:  # the guards that may fire or need a look, in order (the others do nothing)
+                dirs = cm.guard_directions
+                look = np.flatnonzero((np.abs(vals) <= etas) | (dirs * vals > 0))
+                candidates = (cm.guards[int(k)] for k in look)
+            for g in candidates:
                 h = vals[g.index]
                 d = g.direction
-                eta = self.noise(cm, g.index, t, y)
+                eta = etas[g.index] if etas is not None else self.noise(cm, g.index, t, y)
                 if abs(h) <= eta:
                     if series_at is None:
                         series_at = self.integ.guard_series(self.cs, mode, t, y, self.opt.taylor_order)
                     s = lead_sign(series_at(g.index), eta)
                     if d != 0 and s == d:
-                        fire = g
+                        # coincident (reached zero by itself, not put there by this instant's
+                        # switches): only a guard of another component than those that switched;
+                        # a component's own next switch (a stop and the breakaway it lands on
+                        # when the friction level is 0) is caused by its previous one
+                        fire, coincident = g, self._independent(g.name, fired, after_switch)
                         unresolved.append(f"`{g.name}` of mode `{cm.name}` ({h:.3g} within {eta:.3g})")
                         break
                     disarmed[g.index] = s if s != 0 else (-float(d) if d else 1.0)
                 elif d != 0 and d * h > 0:
-                    fire = g
+                    fire, coincident = g, False
                     break
             if fire is None:
-                halt = self.cs.system.mode(cm.name).halt
+                halt = cm.halt
                 if halt:
                     raise _Stop(Status.HALTED, f"halted at t={t!r} in mode `{cm.name}`: {halt}")
                 if not np.all(np.isfinite(y)):
@@ -239,14 +279,24 @@ class Run:
                 yp = cm.derivatives(t, y) if self.integ.needs_derivatives else None
                 return mode, y, yp, disarmed
             visited.append((mode, y))
+            fired.append(fire.name)
             y_new = self.apply_reset(fire, t, y)
             target = fire.target
             # A chain may pass a mode twice if the state changed on the way (an inconsistent
             # initial state relaxes through an instantaneous slip); the same mode with the same
             # state is a loop.
-            loop = any(m == target and np.allclose(ym, y_new, rtol=1e-13, atol=1e-15) for m, ym in visited)
-            if loop or len(visited) > self.opt.max_chain:
-                path = " -> ".join([self.cs.modes[m].name for m, _ in visited] + [self.cs.modes[target].name])
+            seen = states.setdefault(mode, [])
+            seen.append(y)
+            loop = any(np.allclose(ym, y_new, rtol=1e-13, atol=1e-15) for ym in states.get(target, ()))
+            if loop or len(visited) > self.max_chain:
+                if self.cs.system.composed:  # its modes' names are long: the switches say what happened
+                    path = f"mode `{self.cs.mode_name(visited[0][0])}` through the switches " + " -> ".join(
+                        fired
+                    )
+                else:
+                    path = " -> ".join(
+                        [self.cs.mode_name(m) for m, _ in visited] + [self.cs.mode_name(target)]
+                    )
                 if target == mode:
                     raise _Stop(
                         Status.ZENO,
@@ -268,7 +318,7 @@ class Run:
                     "check the guards' directions and the model's sliding modes (a state that both neighbours "
                     "push onto a surface needs a mode that holds it there)",
                 )
-            self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True)
+            self.log(t, cm, fire, vals[fire.index], y, y_new, target, chained=True, coincident=coincident)
             pending = len(self.events) - 1
             mode, y = target, y_new
 
@@ -281,8 +331,8 @@ class Run:
             out[i] = fn(v)
         return out
 
-    def log(self, t, cm, g, h, y_minus, y_plus, target, chained) -> None:
-        tgt = self.cs.modes[target]
+    def log(self, t, cm, g, h, y_minus, y_plus, target, chained, coincident=False) -> None:
+        target_name = self.cs.mode_name(target)
         self.current = (t, np.array(y_minus), cm.index)
         # x_plus is completed (slave variables re-solved) lazily: store the reset state.
         if self.rec.n_events + len(self.events) >= self.max_transitions:
@@ -293,7 +343,15 @@ class Run:
             )
         self.events.append(
             TransitionRecord(
-                t, cm.name, tgt.name, g.name, float(h), np.array(y_minus), np.array(y_plus), chained
+                t,
+                cm.name,
+                target_name,
+                g.name,
+                float(h),
+                np.array(y_minus),
+                np.array(y_plus),
+                chained,
+                coincident and chained,
             )
         )
         self.recent.append(t)
@@ -301,7 +359,7 @@ class Run:
             raise _Stop(
                 Status.ZENO,
                 f"Zeno burst: {len(self.recent)} transitions within {self.recent[-1] - self.recent[0]:.3g} s "
-                f"before t={t!r} (last {cm.name} -> {tgt.name} by `{g.name}`); the model accumulates switches "
+                f"before t={t!r} (last {cm.name} -> {target_name} by `{g.name}`); the model accumulates switches "
                 "in a vanishing time",
             )
 
@@ -309,7 +367,15 @@ class Run:
         """Store the consistent post-switch state (slave variables solved in the target mode)."""
         ev = self.events[index]
         self.events[index] = TransitionRecord(
-            ev.t, ev.source, ev.target, ev.guard, ev.guard_value, ev.x_minus, np.array(y_plus), ev.chained
+            ev.t,
+            ev.source,
+            ev.target,
+            ev.guard,
+            ev.guard_value,
+            ev.x_minus,
+            np.array(y_plus),
+            ev.chained,
+            ev.coincident,
         )
 
     # ------------------------------------------------------------------
@@ -317,7 +383,7 @@ class Run:
         self.rec = recorder
         self.start: tuple[float, np.ndarray, int] | None = None
         t, y, mode = self.t0, y0, mode0
-        start_mode = self.cs.modes[mode0].name
+        start_mode = self.cs.mode_name(mode0)
         status, message = Status.COMPLETED, "reached the end of the time span"
         reason = ""  # the budget's kind, if one stopped the run
         self.budget = Budget(self.opt, self.t0, self.t1)
@@ -396,6 +462,11 @@ class Run:
         noise = {k: self.noise(cm, k, t, y) for k in disarmed}
         solver.start(t, y, yp)
         t_start = t
+        # Samples at the start or within rounding after it (a switch that lands on a sample time)
+        # are the start state: IDA cannot be asked for a time that close (flag -60).
+        self.emit_samples_upto(
+            t + 4.0 * np.finfo(float).eps * max(1.0, abs(t)), lambda s: (y, mode), inclusive=True
+        )
         where = f" in mode `{cm.name}`"
         # A solver with exact dense output (the exact integrator) is not stepped to each sample:
         # the samples of a step are taken from its flow afterwards, all at once.
@@ -519,6 +590,11 @@ class Run:
             # within the step (a long step of the exact flow): bisect from the last point on that side.
             inner = [tau for tau in np.linspace(t_prev, r.t, 65)[1:-1] if h(tau) * h_end < 0]
             if not inner:
+                # a dip too short for that grid (the exact flow's noise band is at rounding): look
+                # near the start, where it began
+                near = t_prev + (r.t - t_prev) * 2.0 ** -np.arange(60, 6, -1)
+                inner = [tau for tau in near if t_prev < tau and h(tau) * h_end < 0]
+            if not inner:
                 return r
             lo = inner[-1]
             h_lo = h(lo)
@@ -605,12 +681,11 @@ class Run:
             if status >= 0:
                 status, message = stop.status, stop.message
         ts, ys, ms, outputs = self.rec.finish(float(t))
-        names = np.array([m.name for m in cs.modes], dtype=object)
         streamed = self.rec.sink is not None
         traj = Trajectory(
             t=ts,
             y=ys,
-            mode=names[ms] if ms.size else np.array([], dtype=object),
+            mode=cs.mode_names_of(ms),
             names=cs.names,
             outputs=outputs,
             events=tuple(self.rec.events),
@@ -623,7 +698,7 @@ class Run:
             system=cs.system,
             t_final=float(t),
             y_final=np.array(y, dtype=float),
-            mode_final=cs.modes[mode].name,
+            mode_final=cs.mode_name(mode),
             t_start=self.t0,
             mode_start=start_mode,
             start_values=start_values,

@@ -113,29 +113,40 @@ class _CSVSink(Sink):
         self.rows = 0
 
     def _rows(self, rows: Iterable[list]) -> None:
-        if self._writer is None:
-            self._fh = self.path.open("w", newline="")
-            self._writer = csv.writer(self._fh)
-            self._writer.writerow(self.header)
-        for row in rows:
-            self._writer.writerow(row)
-            self.rows += 1
+        try:
+            if self._writer is None:
+                self._fh = self.path.open("w", newline="")
+                self._writer = csv.writer(self._fh)
+                self._writer.writerow(self.header)
+            for row in rows:
+                self._writer.writerow(row)
+                self.rows += 1
+        except OSError as exc:  # (a full disk: the error names the file)
+            exc.filename = exc.filename or str(self.path)
+            raise
 
     def close(self) -> Path:
         """Finish the file (header only if no row came) and return its path."""
         if self._writer is None:
             self._rows(())
-        self._fh.close()
+        try:
+            self._fh.close()
+        except OSError as exc:
+            exc.filename = exc.filename or str(self.path)
+            raise
         return self.path
 
     def __enter__(self):
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
+        if exc_type is None or issubclass(exc_type, KeyboardInterrupt):  # (an interrupt keeps the rows)
             self.close()
         elif self._fh is not None:
-            self._fh.close()
+            try:
+                self._fh.close()
+            except OSError:  # (the error that stopped the run is the one to report)
+                pass
 
 
 class TrajectoryCSVWriter(_CSVSink):

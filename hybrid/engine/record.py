@@ -167,8 +167,9 @@ class Recorder:
     ----------
     n_vars : int
         Number of variables.
-    mode_names : sequence of str
-        Mode names by mode index.
+    mode_names : callable
+        ``mode_names(m) -> ndarray of str``: the names of the modes with indices ``m`` (an integer
+        array), e.g. :meth:`hybrid.model.compiled.CompiledSystem.mode_names_of`.
     evaluate : callable
         ``evaluate(t, y, m) -> {output: ndarray (k,)}`` for a block.
     sink : Sink, optional
@@ -187,7 +188,7 @@ class Recorder:
     def __init__(
         self,
         n_vars: int,
-        mode_names: Sequence[str],
+        mode_names,
         evaluate: Callable[[np.ndarray, np.ndarray, np.ndarray], dict[str, np.ndarray]],
         sink: Sink | None = None,
         keep_last: float = 0.0,
@@ -195,7 +196,7 @@ class Recorder:
         max_total: int = MAX_STREAMED_SAMPLES,
         block: int | None = None,
     ):
-        self.mode_names = np.array(list(mode_names), dtype=object)
+        self.mode_names = mode_names
         self.evaluate = evaluate
         self.sink = sink
         self.keep_last = float(keep_last)
@@ -270,7 +271,7 @@ class Recorder:
         t, y, m = self._t[:k].copy(), self._y[:k].copy(), self._m[:k].copy()
         outputs = self.evaluate(t, y, m)
         if self.sink is not None:
-            self.sink.samples(t, y, self.mode_names[m], outputs)
+            self.sink.samples(t, y, self.mode_names(m), outputs)
         self.chunks.append((t, y, m, outputs))
         self.n_kept += k
         if self.sink is not None:

@@ -79,6 +79,7 @@ def simulate(
     progress: Progress | None = None,
     sink: Sink | None = None,
     keep_last: float = 0.0,
+    max_kept: int | None = None,
 ) -> Trajectory:
     """Simulate a hybrid system, event-driven, with IDA.
 
@@ -129,6 +130,11 @@ def simulate(
         only the last sample. The trajectory still counts every switch
         (``n_transitions``) and carries the values at the start and the end
         of the run (``start_values``, ``final_values``).
+    max_kept : int, optional
+        With a ``sink``: at most this many samples are kept (the last ones of
+        the ``keep_last`` window; default and largest ``MAX_SAMPLES``), so that
+        the memory of a run sampled on every step (a model without a period)
+        is bounded.
 
     Returns
     -------
@@ -175,7 +181,9 @@ def simulate(
     if isinstance(max_transitions, bool) or not isinstance(max_transitions, int) or max_transitions < 0:
         raise InputError(f"`max_transitions` must be an integer >= 0, got {max_transitions!r}")
     _check_sink(sink, keep_last)
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    if max_kept is not None and (isinstance(max_kept, bool) or not isinstance(max_kept, int) or max_kept < 1):
+        raise InputError(f"`max_kept` must be an integer >= 1, got {max_kept!r}")
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(
             f"`mode0` is required: model `{system.name}` declares no initial mode; modes: {', '.join(system.mode_names)}"
@@ -211,6 +219,7 @@ def simulate(
         progress,
         sink=sink,
         keep_last=keep_last,
+        max_kept=max_kept,
     )
 
 
@@ -230,11 +239,12 @@ def run_compiled(
     sink: Sink | None = None,
     keep_last: float = 0.0,
     outputs: bool = True,
+    max_kept: int | None = None,
 ) -> Trajectory:
     """:func:`simulate` on an already compiled system and checked input (only the sample caps are checked).
 
     ``samples`` is an increasing array of sample times, or None to sample
-    every internal step; ``sink`` and ``keep_last`` as in :func:`simulate`. Without ``outputs``
+    every internal step; ``sink``, ``keep_last`` and ``max_kept`` as in :func:`simulate`. Without ``outputs``
     the system's outputs are not evaluated (the trajectory has none, and no ``start_values`` or
     ``final_values``): a run of which only the states and switches are read, e.g. an iterate of
     Newton's method on the period map.
@@ -244,13 +254,18 @@ def run_compiled(
     check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
     recorder = Recorder(
         len(cs.names),
-        [m.name for m in cs.modes],
+        cs.mode_names_of,
         run.outputs if outputs else _no_outputs,
         sink,
         keep_last,
-        MAX_SAMPLES,
+        MAX_SAMPLES if max_kept is None else min(max_kept, MAX_SAMPLES),
     )
-    return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
+    try:
+        return run.execute(np.asarray(y0, dtype=float), mode0, throw, recorder)
+    except KeyboardInterrupt:  # the samples computed so far go to the sink (e.g. a CSV file) all the same
+        if sink is not None:
+            recorder.flush()
+        raise
 
 
 def _no_outputs(t: np.ndarray, y: np.ndarray, m: np.ndarray) -> dict[str, np.ndarray]:

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Status", "TransitionRecord", "Trajectory"]
+__all__ = ["Status", "TransitionRecord", "Trajectory", "switch_groups"]
 
 
 class Status(enum.IntEnum):
@@ -48,6 +48,13 @@ class TransitionRecord:
     chained : bool
         True if the switch was taken at entry of a mode, at the same instant
         as the previous one.
+    coincident : bool
+        A chained switch whose own guard reached zero at that instant too (decided within its
+        noise band: e.g. two symmetric contacts stopping together), not one the previous switches
+        caused (a guard they pushed beyond zero or put at zero). Only a component's transition can
+        be coincident, and only where none of the instant's earlier switches is of that component:
+        a system without components cannot tell, and takes every chained switch as caused. Perturbed, it moves with its own guard, so a
+        monodromy matrix takes it as a switch of its own (:func:`switch_groups`).
     """
 
     t: float
@@ -58,6 +65,20 @@ class TransitionRecord:
     x_minus: np.ndarray
     x_plus: np.ndarray
     chained: bool = False
+    coincident: bool = False
+
+
+def switch_groups(events) -> list[list[TransitionRecord]]:
+    """The switches of an event log grouped by cause: a switch with the switches its new mode took
+    at once as consequences (chained, not coincident), in order. A coincident switch at the same
+    instant starts a group of its own."""
+    groups: list[list[TransitionRecord]] = []
+    for ev in events:
+        if groups and ev.chained and not ev.coincident and ev.t == groups[-1][-1].t:
+            groups[-1].append(ev)
+        else:
+            groups.append([ev])
+    return groups
 
 
 @dataclass(frozen=True)

@@ -35,71 +35,57 @@ from ..integrators.base import VariationalSolver
 from ..integrators.registry import integrator
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledMode, CompiledSystem
-from ..model.expr import diff
-from .trajectory import TransitionRecord
+from ..model.expr import diff, free_symbols
+from .trajectory import TransitionRecord, switch_groups
 
 __all__ = ["Sensitivity", "projection_jacobian", "saltation"]
 
 
 def projection_jacobian(mode: CompiledMode, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Derivatives of the projection onto ``mode``'s constraint manifold.
-
-    The projection keeps the differential variables and replaces the slave
-    variables ``z`` by the solution of ``g(t, y_d, z) = 0``.
-
-    Returns
-    -------
-    P_y : ndarray, shape (n, n)
-        ``d(Pi)/dy``: identity on differential rows, ``-g_z^-1 g_d`` on slave rows.
-    P_t : ndarray, shape (n,)
-        ``d(Pi)/dt``: ``-g_z^-1 g_t`` on slave rows.
-    """
-    n = mode.n
-    P_y = np.eye(n)
-    P_t = np.zeros(n)
-    a, d = mode.alg_idx, mode.diff_idx
-    if a.size:
-        J = mode.dFdy(t, y)
-        Gz = J[np.ix_(a, a)]
-        P_y[a, :] = 0.0
-        P_y[np.ix_(a, d)] = -np.linalg.solve(Gz, J[np.ix_(a, d)])
-        v = [t, *np.asarray(y, dtype=float).tolist()]
-        gt = np.array([fn(v) for _, fn in mode.g_t])
-        P_t[a] = -np.linalg.solve(Gz, gt)
-    return P_y, P_t
+    """Derivatives ``(P_y, P_t)`` of the projection onto ``mode``'s constraint manifold (see
+    :meth:`hybrid.model.modebase.ModeMethods.projection`)."""
+    return mode.projection(t, y)
 
 
 class ResetJacobians:
-    """Exact derivatives of transition resets, compiled on first use."""
+    """Exact derivatives of transition resets, compiled on first use (once per reset, however many
+    modes of a system with components share its transition)."""
 
     def __init__(self):
-        self._cache: dict[tuple[int, int], tuple] = {}
+        self._cache: dict[tuple, tuple] = {}
 
     def __call__(self, mode: CompiledMode, k: int, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        key = (mode.index, k)
-        if key not in self._cache:
-            g = mode.guards[k]
+        g = mode.guards[k]
+        key = (id(mode._ns), g.reset_expr)
+        rows = self._cache.get(key)
+        if rows is None:
             slots = mode._slots
+            ns = mode._ns
+            index = {nm: j for j, nm in enumerate(mode.names)}
             rows = []
             for i, e in g.reset_expr:
-                ns = mode._ns
-                grads = tuple(compile_scalar(diff(e, nm), slots, {}, ns) for nm in mode.names)
+                grads = tuple(
+                    (index[nm], compile_scalar(diff(e, nm), slots, {}, ns))
+                    for nm in sorted(free_symbols(e) & index.keys(), key=index.__getitem__)
+                )
                 rows.append((i, grads, compile_scalar(diff(e, "t"), slots, {}, ns)))
-            self._cache[key] = tuple(rows)
+            rows = self._cache[key] = tuple(rows)
         n = mode.n
         R_y = np.eye(n)
         R_t = np.zeros(n)
         v = [t, *np.asarray(y, dtype=float).tolist()]
-        for i, grads, gt in self._cache[key]:
-            R_y[i, :] = [fn(v) for fn in grads]
+        for i, grads, gt in rows:
+            R_y[i, :] = 0.0
+            for j, fn in grads:
+                R_y[i, j] = fn(v)
             R_t[i] = gt(v)
         return R_y, R_t
 
 
 def guard_index(mode: CompiledMode, name: str) -> int:
-    for g in mode.guards:
-        if g.name == name:
-            return g.index
+    k = mode.guard_slot(name)
+    if k is not None:
+        return k
     raise ModelError(f"mode `{mode.name}` has no transition `{name}`")
 
 
@@ -256,12 +242,7 @@ class Sensitivity:
         P_y, _ = projection_jacobian(cs.modes[m], t0, y)
         Y = P_y[np.ix_(s, s)]
         t = t0
-        chains: list[list[TransitionRecord]] = []
-        for ev in events:
-            if chains and ev.chained and ev.t == chains[-1][-1].t:
-                chains[-1].append(ev)
-            else:
-                chains.append([ev])
+        chains = switch_groups(events)
         for chain in chains:
             te = chain[0].t
             if te > t:

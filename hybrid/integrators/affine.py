@@ -55,7 +55,6 @@ __all__ = [
     "affine_flows",
     "affine_mode",
     "affine_system",
-    "exact_flows",
     "system_analysis",
 ]
 
@@ -290,7 +289,7 @@ def _quadratic(e: Expr, symbols: list[str], params: frozenset, where: str) -> li
 
 
 @dataclass
-class _ModeForm:
+class ModeForm:
     """One mode's affine form: coefficient expressions, as positions in the analysis' value vector."""
 
     name: str
@@ -329,8 +328,11 @@ class AffineAnalysis:
         Naming the mode, the equation and the first non-affine term.
     """
 
-    def __init__(self, modes, quadratures: tuple[str, ...], params: tuple[str, ...]):
+    def __init__(
+        self, modes, quadratures: tuple[str, ...], params: tuple[str, ...], forcing: bool | None = None
+    ):
         self.params = tuple(params)
+        self._forcing = forcing  # None: per mode, as its equations say; True/False: every mode alike
         pset = frozenset(params)
         self._values: list[Expr] = [ZERO]  # position 0: zero
         self._where: dict[Expr, int] = {ZERO: 0}
@@ -338,7 +340,13 @@ class AffineAnalysis:
         self._rate_mode: list[str] = []
         self._groups: list[Expr] = []  # distinct forcing rates (up to sign): one S, C pair each in u
         self._rate_group: list[int] = []
-        self.forms: list[_ModeForm] = []
+        self.forms: list[ModeForm] = []
+        modes = list(modes)
+        if forcing:
+            # every form has the same u: the S, C pairs of every group of rates of any mode
+            for name, _names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
+                exprs = [f_expr[i] for i in diff_idx] + [g_expr[i] for i in alg_idx] + [e for _, e in guards]
+                _phase_nodes(exprs, f"mode `{name}`", pset, 0, self._groups)
         for name, names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
             self.forms.append(
                 self._form(name, list(names), diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset)
@@ -360,12 +368,12 @@ class AffineAnalysis:
             self._values.append(e)
         return k
 
-    def _form(self, name, names, diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset) -> _ModeForm:
+    def _form(self, name, names, diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset) -> ModeForm:
         where = f"mode `{name}`"
         qset = {names.index(q) for q in quadratures if q in names}
         d = np.array([i for i in diff_idx if i not in qset], dtype=int)
         a = np.array(alg_idx, dtype=int)
-        q = np.array(sorted(qset), dtype=int)
+        q = np.array(sorted(qset & set(diff_idx)), dtype=int)
         exprs = [f_expr[i] for i in diff_idx] + [g_expr[i] for i in a] + [e for _, e in guards]
         rates, mapping = _phase_nodes(exprs, where, pset, len(self._rates), self._groups)
         first = len(self._rates)
@@ -379,6 +387,8 @@ class AffineAnalysis:
         def sub(e: Expr) -> Expr:
             return replace_nodes(e, mapping) if mapping else e
 
+        if self._forcing is not None:  # every mode alike: all groups of the analysis, or none
+            groups = list(range(len(self._groups))) if self._forcing else []
         symbols = names + [sym_ for g in groups for sym_ in _harmonic_symbols(g)]
 
         def row(e: Expr, what: str) -> list[int]:
@@ -406,7 +416,7 @@ class AffineAnalysis:
         W = np.array([row(e, f"guard `{gname}`") for gname, e in guards], dtype=int).reshape(
             len(guards), nu + 1
         )
-        return _ModeForm(
+        return ModeForm(
             name, tuple(names), d, a, q, list(range(first, len(self._rates))), groups, F, G, W, Qu
         )
 
@@ -435,6 +445,26 @@ class AffineAnalysis:
         return hit
 
     def _evaluate(self, v: list[float]) -> list[tuple]:
+        vals, omegas, harmonics, pairs = self.coefficients(v)
+        return [
+            assemble_form(form, vals, omegas[m], harmonics[m], pairs[m]) for m, form in enumerate(self.forms)
+        ]
+
+    def coefficients(
+        self, v: list[float]
+    ) -> tuple[np.ndarray, list[float | None], list[tuple], list[list[int]]]:
+        """The values of every coefficient at the parameter vector ``v``; each form's forcing
+        frequency [rad/s] (the base frequency; None where its equations have none); each form's
+        harmonics (the multiples ``n`` of the base frequency in its forcing, one pair
+        ``S_n, C_n`` each in ``z``) and pairs (the pair in ``z`` of each of its groups of rates),
+        as :func:`assemble_form` takes them.
+
+        Raises
+        ------
+        NotAffineError
+            Forcing at a zero frequency, or at frequencies that are not integer multiples of the
+            lowest.
+        """
         signs: list[float] = []
         omegas: list[float | None] = [None] * len(self.forms)
         harmonics: list[tuple] = [(1,)] * len(self.forms)
@@ -461,24 +491,24 @@ class AffineAnalysis:
                     )
                 multiple[g] = n
             for m, form in enumerate(self.forms):
-                if form.groups:
+                if form.rates:
                     omegas[m] = base
                     harmonics[m] = tuple(sorted({multiple[g] for g in form.groups}))
                     pairs[m] = [harmonics[m].index(multiple[g]) for g in form.groups]
         vals = self._const.copy()
         if self._fn is not None:
             vals[self._dyn] = self._fn(v + signs)
-        return [_assemble(form, vals, omegas[m], harmonics[m], pairs[m]) for m, form in enumerate(self.forms)]
+        return vals, omegas, harmonics, pairs
 
 
-def _assemble(
-    form: _ModeForm, vals: np.ndarray, omega: float | None, harmonics: tuple = (1,), pairs=(0,)
+def assemble_form(
+    form: ModeForm, vals: np.ndarray, omega: float | None, harmonics: tuple = (1,), pairs=(0,)
 ) -> tuple:
     """``(omega, d, a, q, M, P, Q, W, harmonics)`` of one mode from the coefficient values.
 
     ``harmonics``: the multiples ``n`` of ``omega`` in the mode's forcing, one pair
     ``S_n, C_n`` each in ``z``; ``pairs[i]``: the pair of the ``i``-th group of rates of the
-    mode (the ``i``-th ``S, C`` in ``u``; groups of equal frequency share a pair).
+    form (the ``i``-th ``S, C`` in ``u``; groups of equal frequency share a pair).
     """
     where = f"mode `{form.name}`"
     d, a, q = form.d, form.a, form.q
@@ -624,22 +654,3 @@ def affine_system(cs: CompiledSystem) -> list[AffineMode]:
     out = [AffineMode(cm, *f) for cm, f in zip(cs.modes, flat, strict=True)]
     _check_one_frequency(out)
     return out
-
-
-def exact_flows(cs: CompiledSystem) -> list[AffineMode]:
-    """Every mode of ``cs`` as an exact affine flow (:func:`affine_system`), analysed once per
-    parameter set (kept in ``cs.derived`` until its parameters change).
-
-    Raises
-    ------
-    NotAffineError
-        Naming the model, the first mode and the term that is not affine.
-    """
-    hit = cs.derived.get("exact_flows")
-    if hit is None:
-        try:
-            hit = affine_system(cs)
-        except ValueError as exc:
-            raise type(exc)(f"model `{cs.system.name}`: {exc}") from None
-        cs.derived["exact_flows"] = hit
-    return hit

@@ -183,6 +183,40 @@ class Integrator(ABC):
     def noise_rtol(self, options: SolverOptions) -> float:
         """Relative accuracy of one run of a map (e.g. one forcing period) with ``options``."""
 
+    def guard_noise(
+        self,
+        options: SolverOptions,
+        atol: np.ndarray,
+        grad: np.ndarray,
+        ht: float,
+        t: float,
+        y: np.ndarray,
+        size: float,
+    ) -> float:
+        """The noise band of a guard at ``(t, y)``: a guard within it of zero is judged by its
+        Taylor series along the flow, not by its sign (:meth:`hybrid.engine.eventloop.Run.enter`).
+
+        By default (an integrator with tolerances) ``guard_noise x sum |dh/dy| (atol + rtol |y|)
+        + 1e-14``: the accuracy of the state the tolerances allow, carried to the guard.
+
+        Parameters
+        ----------
+        options : SolverOptions
+        atol : ndarray
+            Absolute tolerance per variable.
+        grad, ht : ndarray, float
+            ``dh/dy`` and ``dh/dt`` of the guard at ``(t, y)``.
+        t : float
+            Time [s].
+        y : ndarray
+            State.
+        size : float
+            ``max |y|`` over the state's variables that are not quadratures (the scale of the
+            rounding of a state that a flow computes from all of them).
+        """
+        scale = atol + options.rtol * np.abs(y)
+        return options.guard_noise * float(np.abs(grad) @ scale) + 1e-14
+
     @abstractmethod
     def mode_solver(
         self,

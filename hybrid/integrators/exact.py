@@ -17,6 +17,8 @@ missed; each root is polished by Newton steps on the exact flow. The fundamental
 
 from __future__ import annotations
 
+from math import comb
+
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
@@ -24,8 +26,10 @@ from ..core.errors import InputError, NotAffineError
 from ..core.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
-from .affine import AffineMode, affine_flows, exact_flows
+from .affine import AffineMode, affine_flows
+from .assembly import ComposedFlows, SparseAffineMode
 from .base import ROOT, SUCCESS, TSTOP, Integrator, StepResult
+from .flows import exact_flows
 
 __all__ = ["ExactIntegrator", "ExactModeSolver", "ExactSensitivity", "ExactVariational", "TAYLOR_DEGREE"]
 
@@ -37,6 +41,31 @@ TAYLOR_DEGREE = 24
 # Propagation
 # ----------------------------------------------------------------------------
 
+
+def _bernstein_matrix(pieces: int, degree: int) -> np.ndarray:
+    """The linear map from monomial coefficients on [0, 1] to the Bernstein coefficients of the same
+    polynomial on each of ``pieces`` equal subintervals, stacked: shape (pieces * (degree + 1),
+    degree + 1). Where every Bernstein coefficient of a piece has one strict sign the polynomial
+    has that sign on the whole piece (it is a convex combination of them)."""
+    K = degree
+    to_bern = np.array(
+        [[comb(i, j) / comb(K, j) if j <= i else 0.0 for j in range(K + 1)] for i in range(K + 1)]
+    )
+    rows = []
+    for m in range(pieces):
+        u, w = m / pieces, 1.0 / pieces
+        # p(u + w s) = sum_j a_j (u + w s)^j: its monomial coefficients in s
+        shift = np.zeros((K + 1, K + 1))
+        for j in range(K + 1):
+            for i in range(j + 1):
+                shift[i, j] = comb(j, i) * u ** (j - i) * w**i
+        rows.append(to_bern @ shift)
+    return np.vstack(rows)
+
+
+#: Subintervals of a step on which a guard's Bernstein coefficients are looked at.
+BERNSTEIN_PIECES = 4
+_BERNSTEIN = _bernstein_matrix(BERNSTEIN_PIECES, TAYLOR_DEGREE)
 
 _GRID = np.linspace(0.0, 1.0, 17)
 _DEGREES = np.arange(TAYLOR_DEGREE + 1, dtype=float)
@@ -101,7 +130,7 @@ class ExactModeSolver:
         self.h, T = _guard_series_rows(am, float(max_step))
         self._T = T
         self.flow = am.flow()
-        self._direction = [g.direction for g in am.cm.guards]
+        self._direction = [int(d) for d in am.cm.guard_directions]
         # Exclusion test on a grid: |p| at the nodes against the derivative bound.
         self._scales: dict[float, np.ndarray] = {}
         self.t = 0.0
@@ -154,7 +183,7 @@ class ExactModeSolver:
             if len(self._scales) >= 16:
                 self._scales.clear()
             scale = self._scales[h] = h ** np.arange(TAYLOR_DEGREE + 1)
-        C = (self._T @ z) * scale  # (ng, K+1): guards as polynomials in s/h on [0, 1]
+        C = self._guard_coefficients(z) * scale  # (ng, K+1): guards as polynomials in s/h on [0, 1]
         A = np.abs(C)
         mag = A.sum(axis=1)
         a0 = A[:, 0]
@@ -162,8 +191,21 @@ class ExactModeSolver:
             return None  # |p(s)| >= |c_0| - sum_j>0 |c_j| > 0 on [0, 1] for every armed guard
         # cannot vanish on [0, 1]: |p| at 17 nodes exceeds what its slope bound allows in between
         near = np.abs(C @ _VANDER.T).min(axis=1) <= (0.5 / (_GRID.size - 1)) * (A @ _DEGREES)
+        cand = np.flatnonzero(self.armed & near & (mag > 0.0))
+        first = np.zeros(cand.size, dtype=int)
+        if cand.size:
+            # and not where its Bernstein coefficients keep one strict sign on every piece of the step
+            # (a bound on |p| from below: no root there; 1e-13 of the coefficients' size covers rounding)
+            B = (C[cand] @ _BERNSTEIN.T).reshape(cand.size, BERNSTEIN_PIECES, -1)
+            tol = 1e-13 * mag[cand][:, None, None]
+            signed = np.all(B > tol, axis=2) | np.all(B < -tol, axis=2)  # (cand, piece)
+            keep = ~np.all(signed, axis=1)
+            cand, signed = cand[keep], signed[keep]
+            first = np.argmin(signed, axis=1)  # the first piece where a root may lie
         best = None
-        for k in np.flatnonzero(self.armed & near & (mag > 0.0)):
+        for k, piece in sorted(zip(cand.tolist(), first.tolist(), strict=True), key=lambda kp: kp[1]):
+            if best is not None and best[0] < piece / BERNSTEIN_PIECES:
+                break  # this guard and the rest cannot cross before the crossing found
             for r in self._crossings(C[k], self._direction[k], float(mag[k]), self._stepped):
                 if best is None or r < best[0]:
                     best = (r, int(k))
@@ -171,6 +213,10 @@ class ExactModeSolver:
         if best is None:
             return None
         return best[0] * h, best[1]
+
+    def _guard_coefficients(self, z: np.ndarray) -> np.ndarray:
+        """``W_g M^j z / j!`` for every guard ``g`` and ``j <= TAYLOR_DEGREE``, shape (ng, K+1)."""
+        return self._T @ z
 
     @staticmethod
     def _crossings(c: np.ndarray, direction: int, mag: float, stepped: bool = False) -> list[float]:
@@ -202,8 +248,12 @@ class ExactModeSolver:
             if r <= tiny:
                 # A root at the start: at a segment's start a guard at zero is disarmed or taken
                 # by the engine; later, a crossing exactly on the boundary of two steps.
-                c0 = float(c[0])  # (within 1e-12 of the root: zero to the guard's rounding)
-                if stepped and (
+                # A guard strictly on its safe side there is armed beyond its noise band (the
+                # engine's, at rounding for this flow): a crossing that short is a real one.
+                c0 = float(c[0])
+                if (direction >= 0 and c0 < 0.0 < v_hi) or (direction <= 0 and c0 > 0.0 > v_hi):
+                    out.append(r)
+                elif stepped and (
                     (direction >= 0 and c0 <= 0.0 < v_hi) or (direction <= 0 and c0 >= 0.0 > v_hi)
                 ):
                     out.append(r)
@@ -340,6 +390,161 @@ class ExactModeSolver:
         return self.am.state(z, quad), self.am.derivatives(z)
 
 
+#: Largest ``||M h||`` (infinity norm) of a step of :class:`TaylorModeSolver`: the Taylor series
+#: of the flow truncated at degree :data:`TAYLOR_DEGREE` then equals it to rounding
+#: (``1.5**25 / 25! < 1e-21``).
+TAYLOR_THETA = 1.5
+
+
+class TaylorModeSolver(ExactModeSolver):
+    """The exact flow of one affine mode of a large system, by its Taylor series on short steps.
+
+    Where the augmented state is large (a system of many contacts) the generator ``M`` is
+    sparse and an eigen-decomposition per mode would cost ``O(nz^3)``. Here a step of length
+    ``h <= TAYLOR_THETA / ||M||_inf`` takes the coefficients ``c_j = M^j z / j!``
+    (``j <= TAYLOR_DEGREE``, sparse products): the flow ``z(s) = sum_j c_j s^j`` and the guards
+    ``W c_j`` as polynomials in ``s`` equal the exact ones to rounding, so crossings are found as
+    by :class:`ExactModeSolver` (the same root search), the state at any time of the step is the
+    polynomial's value, and the quadratures are the integrals of ``z^T Q z`` of the series.
+    Nothing is decomposed: a mode costs its assembly, a step ``O(TAYLOR_DEGREE * nnz(M))``.
+
+    Parameters
+    ----------
+    am : SparseAffineMode
+    max_step : float
+        Upper bound of a step [s].
+    """
+
+    def __init__(self, am, *, max_step: float):
+        self.am = am
+        self.mode = am.cm
+        ng = am.W.shape[0]
+        self.armed = np.ones(ng, dtype=bool)
+        self.safe = np.zeros(ng)
+        self.nfev_last = 0
+        self.njev_last = 0
+        nz = am.nz
+        norm = float(np.max(np.abs(am.M).sum(axis=1))) if nz else 0.0
+        self.h = float(max_step) if norm == 0.0 else min(float(max_step), TAYLOR_THETA / norm)
+        self.flow = _TaylorFlow(am, self.h)
+        self._direction = [int(d) for d in am.cm.guard_directions]
+        self._scales: dict[float, np.ndarray] = {}
+        self.t = 0.0
+        self.z = np.zeros(nz)
+        self.quad = np.zeros(am.q.size)
+        self._t_call = 0.0
+        self._z_call = self.z
+        self._quad_call = self.quad
+        self._pending = None
+        self._stepped = False
+
+    def _guard_coefficients(self, z: np.ndarray) -> np.ndarray:
+        return np.asarray(self.am.W @ self.flow.prepare(z).T)
+
+    def _advance(self, z: np.ndarray, quad: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        if h == 0.0:
+            return z.copy(), quad.copy()
+        z1, dq = self.flow.advance(z, h)
+        return z1, quad + dq
+
+    def _polish(self, z0: np.ndarray, s: float, k: int, h: float) -> float:
+        """Newton steps on the guard's polynomial (exact on the step) from its root ``s``."""
+        cols, w = self.am.guard_row(k)
+        c = self.flow.prepare(z0)[:, cols] @ w  # W_k c_j
+        powers = np.arange(c.size)
+        dc = c[1:] * powers[1:]
+        for _ in range(3):
+            val = float(np.polynomial.polynomial.polyval(s, c))
+            der = float(np.polynomial.polynomial.polyval(s, dc))
+            if der == 0.0:
+                break
+            ds = -val / der
+            if abs(ds) > 1e-6 * max(h, 1e-300):
+                break
+            s_new = min(max(s + ds, 0.0), h)
+            if s_new == s:
+                break
+            s = s_new
+        return s
+
+    def interpolate_many(self, ts: np.ndarray) -> np.ndarray:
+        """Exact states at the times ``ts`` [s] (increasing) since the start of the last :meth:`step`
+        call: the series from the start of each step of at most ``h`` they fall in (the exact flow
+        does not depend on how its time is cut)."""
+        ts = np.asarray(ts, dtype=float)
+        am = self.am
+        out = np.empty((ts.size, am.P.shape[0]))
+        t, z, quad = self._t_call, self._z_call.copy(), self._quad_call.copy()
+        i = 0
+        while i < ts.size:
+            j = int(np.searchsorted(ts, t + self.h, side="right"))
+            if j > i:
+                Z, dQ = self.flow.evaluate(z, ts[i:j] - t)
+                if am.omega is not None:
+                    k = am.d.size
+                    Z[:, k : k + 2 * len(am.harmonics)] = am.forcing_columns(ts[i:j])
+                Z[:, -1] = 1.0
+                Y = np.asarray(am.P @ Z.T).T
+                if am.q.size:
+                    Y[:, am.q] = quad[None, :] + dQ
+                out[i:j] = Y
+                i = j
+            if i < ts.size:
+                z, dq = self.flow.advance(z, self.h)
+                quad = quad + dq
+                t = t + self.h
+                self._fix_forcing(t, z)
+        return out
+
+
+class _TaylorFlow:
+    """The flow of a (sparse) affine mode by its Taylor series (see :class:`TaylorModeSolver`)."""
+
+    eigen = False
+
+    def __init__(self, am, h: float):
+        self.am = am
+        self.h = h
+        self._z = None
+        self._C = None
+
+    def prepare(self, z: np.ndarray) -> np.ndarray:
+        """The coefficients ``c_j = M^j z / j!`` as rows, shape (K+1, nz) (kept for the last ``z``)."""
+        if self._z is not None and self._z.shape == z.shape and np.array_equal(self._z, z):
+            return self._C
+        M = self.am.M
+        C = np.empty((TAYLOR_DEGREE + 1, z.size))
+        c = np.array(z, dtype=float)
+        for j in range(TAYLOR_DEGREE + 1):
+            C[j] = c
+            c = (M @ c) / (j + 1)
+        self._z, self._C = np.array(z, dtype=float), C
+        return C
+
+    def evaluate(self, z: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``z(s_i)`` (rows) and the quadratures' increments at ``0 <= s_i <= h``."""
+        C = self.prepare(z)
+        V = np.asarray(s, dtype=float)[:, None] ** np.arange(TAYLOR_DEGREE + 1)[None, :]
+        Z = V @ C
+        am = self.am
+        if not am.q.size:
+            return Z, np.zeros((V.shape[0], 0))
+        K = TAYLOR_DEGREE + 1
+        degs = np.arange(K)[:, None] + np.arange(K)[None, :] + 1  # of s in the integral of c_j s^j c_k s^k
+        dQ = np.empty((V.shape[0], am.q.size))
+        for q, Qj in enumerate(am.Q):
+            G = C @ np.asarray(Qj @ C.T)  # (K, K): c_j^T Q c_k
+            coef = np.zeros(2 * K)
+            np.add.at(coef, degs.ravel(), (G / degs).ravel())
+            dQ[:, q] = np.polynomial.polynomial.polyval(np.asarray(s, dtype=float), coef)
+        return Z, dQ
+
+    def advance(self, z: np.ndarray, h: float, prep=None) -> tuple[np.ndarray, np.ndarray]:
+        """``(z(h), q(h) - q(0))`` for ``0 <= h <= self.h``."""
+        Z, dQ = self.evaluate(z, np.array([h]))
+        return Z[0], dQ[0]
+
+
 class ExactSensitivity:
     """Fundamental matrices over one affine mode, behind the interface of :class:`hybrid.integrators.ida.SensitivitySolver`.
 
@@ -442,20 +647,22 @@ class ExactVariational:
     #: Residual evaluations (none: the exact flow evaluates no residual).
     nfev = 0
 
-    def _flows(self, params: dict) -> list[AffineMode]:
+    def _flows(self, params: dict):
+        if self.cs.form is not None:  # a system with components: its modes as the run interned them
+            return ComposedFlows(self.cs, params)
         try:
             return affine_flows(self.cs.system, params)
         except NotAffineError:  # affine only at these values: analysed on folded expressions
             return exact_flows(CompiledSystem(self.cs.system, params))
 
     def solver(self, m: int, extend: np.ndarray) -> ExactSensitivity:
-        """Mode ``m``'s solver at the free parameters' values ``extend``."""
+        """Mode ``m``'s solver at the free parameters' values ``extend`` (made when first asked for)."""
         key = tuple(float(v) for v in extend)
         if self._key != key:
             cs = self.cs
             params = {**cs.params, **dict(zip(cs.free, key, strict=True))}
-            base = self._flows(params)
-            pm = None
+            self._base = self._flows(params)
+            self._pm = None
             if cs.free:
                 if len(cs.free) > 1:
                     raise InputError("the exact integrator differentiates by one free parameter at most")
@@ -463,13 +670,22 @@ class ExactVariational:
                 delta = 1e-6 * max(abs(params[p]), 1e-3)
                 plus = self._flows({**params, p: params[p] + delta})
                 minus = self._flows({**params, p: params[p] - delta})
-                pm = (plus, minus, delta)
-            self._modes = {
-                k: ExactSensitivity(base[k], self.s, None if pm is None else (pm[0][k], pm[1][k], pm[2]))
-                for k in range(len(base))
-            }
+                self._pm = (plus, minus, delta)
+            self._modes = {}
             self._key = key
-        return self._modes[m]
+        hit = self._modes.get(m)
+        if hit is None:
+            pm = self._pm
+            hit = self._modes[m] = ExactSensitivity(
+                _dense(self._base[m]),
+                self.s,
+                None if pm is None else (_dense(pm[0][m]), _dense(pm[1][m]), pm[2]),
+            )
+        return hit
+
+
+def _dense(am: AffineMode) -> AffineMode:
+    return am.dense() if isinstance(am, SparseAffineMode) else am
 
 
 class ExactIntegrator(Integrator):
@@ -506,6 +722,31 @@ class ExactIntegrator(Integrator):
         """:attr:`NOISE_RTOL`: the tolerances do not apply to the exact flow."""
         return self.NOISE_RTOL
 
+    #: Relative rounding of a state of the exact flow and of a time, for the guards' noise band.
+    ROUNDING = 1e-15
+
+    def guard_noise(
+        self,
+        options: SolverOptions,
+        atol: np.ndarray,
+        grad: np.ndarray,
+        ht: float,
+        t: float,
+        y: np.ndarray,
+        size: float,
+    ) -> float:
+        """The rounding of a guard's value, not the tolerances' band: ``guard_noise x ROUNDING x
+        (sum |dh/dy| (|y| + size) + |dh/dt| |t|)``.
+
+        The exact flow's state is right to the rounding of the matrix exponentials (relative to
+        the state's size, ``size``) and the time to its own rounding; a band as wide as the
+        tolerances' (1e-9 of the state) would hide every stick or slip phase shorter than about
+        1e-8 s (Den Hartog's oscillator just inside its non-stop boundary), which this flow
+        resolves (a phase of 1e-13 s: ``tests/hybrid/test_bifurcation.py``).
+        """
+        scale = self.ROUNDING * (np.abs(y) + size)
+        return options.guard_noise * (float(np.abs(grad) @ scale) + abs(ht) * self.ROUNDING * abs(t)) + 1e-300
+
     def mode_solver(
         self,
         cs: CompiledSystem,
@@ -516,8 +757,12 @@ class ExactIntegrator(Integrator):
         max_step: float,
         first_step: float = 0.0,
     ) -> ExactModeSolver:
-        """An :class:`ExactModeSolver` on the mode's exact flow (tolerances and first step do not apply)."""
-        return ExactModeSolver(exact_flows(cs)[mode], max_step=max_step)
+        """An :class:`ExactModeSolver` on the mode's exact flow (tolerances and first step do not apply);
+        a :class:`TaylorModeSolver` for the sparse mode of a large system."""
+        am = exact_flows(cs)[mode]
+        if isinstance(am, SparseAffineMode):
+            return TaylorModeSolver(am, max_step=max_step)
+        return ExactModeSolver(am, max_step=max_step)
 
     def guard_series(self, cs: CompiledSystem, mode: int, t: float, y: np.ndarray, order: int):
         """The guards' series of the exact flow: ``W_k M^j z / j!``."""

@@ -122,6 +122,9 @@ class ModeSolver:
         Internal steps allowed per call.
     first_step : float
         First step of every (re)start; 0: IDA's own estimate.
+    band : (int, int), optional
+        Lower and upper bandwidth of the iteration matrix in every mode (a system with components
+        whose couplings are local, e.g. a chain): IDA's banded solver instead of the dense one.
     """
 
     def __init__(
@@ -133,6 +136,7 @@ class ModeSolver:
         max_step: float,
         max_num_steps: int,
         first_step: float = 0.0,
+        band: tuple[int, int] | None = None,
     ):
         self.mode = mode
         ng = len(mode.guards)
@@ -140,7 +144,6 @@ class ModeSolver:
         self.safe = np.zeros(ng)
         self.nfev_last = 0
         self.njev_last = 0
-        self._guard_fns = [g.fn for g in mode.guards]
 
         # The callbacks are the hot path of a run (about 2000 calls per forcing period): the
         # mode's generated functions are called directly, without the CompiledMode wrappers.
@@ -172,6 +175,8 @@ class ModeSolver:
             jacfn=jacfn,
             calc_initcond=None,
         )
+        if band is not None:
+            opts.update(linsolver="band", lband=int(band[0]), uband=int(band[1]))
         if mode.alg_idx.size:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
@@ -184,7 +189,7 @@ class ModeSolver:
                     out[~armed] = safe[~armed]
 
             eventsfn.terminal = [True] * ng
-            eventsfn.direction = [g.direction for g in mode.guards]
+            eventsfn.direction = [int(d) for d in mode.guard_directions]
             opts["eventsfn"] = eventsfn
             opts["num_events"] = ng
             self._events = eventsfn
@@ -512,6 +517,7 @@ class IDAIntegrator(Integrator):
                 max_step=max_step,
                 max_num_steps=max_num_steps,
                 first_step=first_step,
+                band=cs.form.band if cs.form is not None else None,
             )
         return s
 

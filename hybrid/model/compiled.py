@@ -17,15 +17,17 @@ import math
 import threading
 import weakref
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.errors import AlgebraicSolveError, InputError
+from ..core.cache import LRUCache
+from ..core.errors import InputError
 from .codegen import compile_many, runtime_namespace, set_runtime
+from .composed import ComposedForm, ComposedMode
 from .expr import Expr, diff, free_symbols, neg, num, sub, substitute, sym
+from .guard import CompiledGuard
+from .modebase import ModeMethods
 from .system import HybridSystem
-from .taylor import taylor_eval, taylor_eval_many
 
 __all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "CompiledPool", "lend"]
 
@@ -33,24 +35,7 @@ __all__ = ["CompiledSystem", "CompiledMode", "CompiledGuard", "CompiledPool", "l
 _YP = " yp"
 
 
-@dataclass(frozen=True)
-class CompiledGuard:
-    """A transition's guard compiled in its source mode."""
-
-    index: int  # position among the source mode's guards
-    transition: int  # position in system.transitions
-    name: str
-    target: int  # target mode index
-    direction: int
-    expr: Expr
-    fn: object  # function v -> float
-    grad: tuple  # closures v -> dh/dy_j (None where identically zero)
-    grad_t: object
-    reset: tuple  # ((var index, closure), ...)
-    reset_expr: tuple = ()  # ((var index, Expr), ...)
-
-
-class CompiledMode:
+class CompiledMode(ModeMethods):
     """One mode's equations, Jacobians, guards and outputs as generated functions.
 
     The residual of all rows, the non-constant entries of ``dF/dy`` and the values of all guards
@@ -79,6 +64,7 @@ class CompiledMode:
         data = system.parsed.modes[mode.name]
         names = tuple(system.variable_names) + tuple(free)
         self.name = mode.name
+        self.halt = mode.halt
         self.index = index
         self.n = n = len(names)
         self.names = names
@@ -158,9 +144,10 @@ class CompiledMode:
                 continue
             h = fold(td["guard"])
             grad = []
-            for nm in names:
+            for j, nm in enumerate(names):
                 d = diff(h, nm)
-                grad.append(None if (d.op == "num" and d.args[0] == 0.0) else comp(d))
+                if not (d.op == "num" and d.args[0] == 0.0):
+                    grad.append((j, comp(d)))
             reset_expr = tuple((names.index(v), fold(e)) for v, e in td["reset"].items())
             reset = tuple((i, comp(e)) for i, e in reset_expr)
             guards.append(
@@ -179,6 +166,7 @@ class CompiledMode:
                 )
             )
         self.guards: tuple[CompiledGuard, ...] = tuple(guards)
+        self.guard_directions = np.array([g.direction for g in guards], dtype=float)
         self._guards_fn = (
             compile_many([g.expr for g in guards], slots, f"guards_{mode.name}", namespace=self._ns)
             if guards
@@ -198,168 +186,15 @@ class CompiledMode:
             else None
         )
 
-    def outputs_at(self, t: np.ndarray, Y: np.ndarray) -> list[np.ndarray] | None:
-        """The system's outputs at samples ``(t[i], Y[i])`` of this mode, one array per output (in
-        the order of ``system.outputs``), evaluated elementwise at once; None where a value is not
-        finite (the caller evaluates sample by sample, where the scalar functions say why)."""
-        if self._outputs_vec is None:
-            return []
-        with np.errstate(all="ignore"):
-            vals = self._outputs_vec([t, *Y.T])
-        out = [np.broadcast_to(np.asarray(v, dtype=float), t.shape) for v in vals]
-        return out if all(np.all(np.isfinite(v)) for v in out) else None
-
-    def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
-        env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
-        for p in self._runtime:
-            env[p] = self._ns[f"_p_{p}"]
-        return env
-
-    # ------------------------------------------------------------------
-    # Residual and Jacobian (backend-independent: plain arrays in and out)
-    def residual(self, t: float, y: np.ndarray, yp: np.ndarray, out: np.ndarray) -> None:
-        """Fill ``out`` with the DAE residual ``F(t, y, y')``."""
-        out[: self.n] = self._res_fn([t, *y[: self.n].tolist(), *yp[: self.n].tolist()])
-
-    def jacobian(self, t: float, y: np.ndarray, cj: float, out: np.ndarray) -> None:
-        """Fill ``out`` with ``dF/dy + cj dF/dy'``."""
-        out[:, :] = self.jac_base
-        if self._jac_fn is not None:
-            out[self._jac_at] = self._jac_fn([t, *y.tolist()])
-        d = self.diff_idx
-        out[d, d] += cj
-
-    def dFdy(self, t: float, y: np.ndarray) -> np.ndarray:
-        """``dF/dy`` (rows: -df/dy for differential, dg/dy for slave variables)."""
-        out = np.empty((self.n, self.n))
-        self.jacobian(t, y, 0.0, out)
-        return out
-
-    # ------------------------------------------------------------------
-    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Derivatives of the differential variables (zeros at slave positions)."""
-        y = np.asarray(y, dtype=float)
-        out = np.zeros(self.n)
-        F = self._res_fn([t, *y.tolist(), *([0.0] * self.n)])
-        p = self._f_pos
-        out[p] = np.negative(np.take(F, p))
-        return out
-
-    def solve_algebraic(
-        self, t: float, y: np.ndarray, *, tol: float = 1e-14, maxiter: int = 50
-    ) -> np.ndarray:
-        """Return ``y`` with the slave variables solved by Newton's method (exact Jacobian)."""
-        y = np.array(y, dtype=float)
-        if self.alg_idx.size == 0:
-            return y
-        a = self.alg_idx
-        res = np.zeros(self.n)
-        zero = np.zeros(self.n)
-        for _ in range(maxiter):
-            self.residual(t, y, zero, res)
-            r = res[a]
-            try:
-                if self._gzz_inv is not None:  # constant g_z: no Jacobian to evaluate or factor
-                    step = self._gzz_inv @ r
-                else:
-                    step = np.linalg.solve(self.dFdy(t, y)[np.ix_(a, a)], r)
-            except np.linalg.LinAlgError:
-                raise AlgebraicSolveError(
-                    f"mode `{self.name}`: the algebraic equations are singular in the slave variables at t={t!r}"
-                ) from None
-            y[a] -= step
-            scale = 1.0 + np.abs(y[a])
-            if np.all(np.abs(step) <= tol * scale):
-                self.residual(t, y, zero, res)
-                if np.all(np.isfinite(res[a])):
-                    return y
-        raise AlgebraicSolveError(
-            f"mode `{self.name}`: Newton's method did not solve the algebraic equations at t={t!r} "
-            f"(residual {np.max(np.abs(res[a])):.3g})"
-        )
-
-    def derivatives(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Consistent ``y'`` at a point that satisfies the algebraic equations.
-
-        Differential rows from the vector field; slave rows from the
-        differentiated constraint ``g_z z' = -(g_x x' + g_t)``.
-        """
-        yp = self.rhs(t, y)
-        if self.alg_idx.size:
-            a, d = self.alg_idx, self.diff_idx
-            J = self.dFdy(t, y)
-            v = [t, *np.asarray(y, dtype=float).tolist()]
-            gt = np.array([fn(v) for _, fn in self.g_t])
-            rhs = -(J[self._ix_ad] @ yp[d] + gt)
-            gzz = J[self._ix_aa]
-            yp[a] = rhs / gzz[0, 0] if a.size == 1 else np.linalg.solve(gzz, rhs)
-        return yp
-
-    def guard_values(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Values of this mode's guards at ``(t, y)``."""
-        if self._guards_fn is None:
-            return np.zeros(0)
-        return np.array(self._guards_fn([t, *np.asarray(y, dtype=float).tolist()]))
-
-    def guard_gradient(self, k: int, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
-        """``(dh/dy, dh/dt)`` of guard ``k`` at ``(t, y)``."""
-        v = [t, *np.asarray(y, dtype=float).tolist()]
-        g = self.guards[k]
-        grad = np.array([0.0 if d is None else d(v) for d in g.grad])
-        return grad, g.grad_t(v)
-
-    # ------------------------------------------------------------------
-    def taylor(self, t: float, y: np.ndarray, order: int) -> np.ndarray:
-        """Taylor coefficients of this mode's flow through ``(t, y)``.
-
-        Differential variables: ``x_{k+1} = f(x)_k / (k+1)``; slave variables:
-        the order-``k`` coefficient of ``g(x, z) = 0`` is linear in ``z_k``.
-
-        Returns
-        -------
-        ndarray, shape (n, order + 1)
-        """
-        n = self.n
-        X = np.zeros((n, order + 1))
-        X[:, 0] = y
-        tj = np.zeros(order + 1)
-        tj[0] = t
-        if order >= 1:
-            tj[1] = 1.0
-        a = self.alg_idx
-        Jzz = None
-        if a.size:
-            Jzz = self.dFdy(t, y)[np.ix_(a, a)]
-        f_rows, f_roots = list(self.f_expr), tuple(self.f_expr.values())
-        g_roots = tuple(self.g_expr[i] for i in a)
-        for k in range(order):
-            env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
-            series = taylor_eval_many(f_roots, env)  # shared sub-expressions once
-            for i, c in zip(f_rows, series, strict=True):
-                X[i, k + 1] = c[k] / (k + 1)
-            if a.size:
-                r = np.array([c[k + 1] for c in taylor_eval_many(g_roots, env)])
-                X[a, k + 1] = -np.linalg.solve(Jzz, r)
-        return X
-
-    def guard_series(
-        self, k: int, t: float, y: np.ndarray, order: int, X: np.ndarray | None = None
-    ) -> np.ndarray:
-        """Taylor coefficients of guard ``k`` along this mode's flow from ``(t, y)``.
-
-        ``X`` may pass the flow's series from :meth:`taylor` (same point and order) to reuse it.
-        """
-        if X is None:
-            X = self.taylor(t, y, order)
-        tj = np.zeros(order + 1)
-        tj[0] = t
-        if order >= 1:
-            tj[1] = 1.0
-        return taylor_eval(self.guards[k].expr, self._env(tj, X))
-
 
 class CompiledSystem:
-    """All modes of a system compiled for one parameter set.
+    """A system compiled for one parameter set, its modes by index.
+
+    A system without components has its modes compiled at once (:class:`CompiledMode`, index =
+    position in ``system.modes``). A system with components is compiled once for all its modes
+    (:class:`hybrid.model.composed.ComposedForm`); a mode gets an index when first named
+    (:meth:`intern`) and its :class:`hybrid.model.composed.ComposedMode` is made when first used
+    (microseconds, no code generated), at most :data:`MODE_CACHE` of them kept at once.
 
     ``free`` parameters are appended to the state (see :class:`CompiledMode`);
     ``runtime`` parameters are read at call time, so that
@@ -378,11 +213,19 @@ class CompiledSystem:
         self.free = tuple(free)
         self.runtime = tuple(runtime)
         self._ns = runtime_namespace({p: self.params[p] for p in self.runtime})
-        self.modes = tuple(
-            CompiledMode(system, k, self.params, self.free, self.runtime, self._ns)
-            for k in range(len(system.modes))
-        )
-        self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
+        if system.composed:
+            self.form = ComposedForm(system, self.params, self.free, self.runtime, self._ns)
+            self.modes = _ModeTable(self)
+            self._keys: list[tuple[int, ...]] = []
+            self._ids: dict[tuple[int, ...], int] = {}
+            self.mode_index = _NameIndex(self)
+        else:
+            self.form = None
+            self.modes = tuple(
+                CompiledMode(system, k, self.params, self.free, self.runtime, self._ns)
+                for k in range(len(system.modes))
+            )
+            self.mode_index = {m.name: k for k, m in enumerate(self.modes)}
         self.period = system.period_value(self.params)
         self.names = tuple(system.variable_names) + self.free
         #: What higher layers derive from this compiled system at its current parameter values
@@ -393,6 +236,34 @@ class CompiledSystem:
         #: parameters at each call, so they stay valid when :meth:`set_runtime` changes them.
         self.solvers: dict[object, object] = {}
 
+    def intern(self, key: tuple[int, ...]) -> int:
+        """The index of the mode whose parts have the local mode indices ``key`` (see
+        :meth:`hybrid.HybridSystem.mode_key`), given on first use."""
+        if self.form is None:
+            return int(key[0])
+        k = self._ids.get(key)
+        if k is None:
+            k = self._ids[key] = len(self._keys)
+            self._keys.append(key)
+        return k
+
+    def key(self, index: int) -> tuple[int, ...]:
+        """The local mode indices of mode ``index``."""
+        return (index,) if self.form is None else self._keys[index]
+
+    def mode_name(self, index: int) -> str:
+        """The name of mode ``index``."""
+        return self.modes[index].name if self.form is None else self.system.mode_label(self._keys[index])
+
+    def mode_names_of(self, indices: np.ndarray) -> np.ndarray:
+        """The names of the modes ``indices`` (an integer array) as an object array."""
+        indices = np.asarray(indices, dtype=int)
+        if indices.size == 0:
+            return np.array([], dtype=object)
+        uniq, inv = np.unique(indices, return_inverse=True)
+        names = np.array([self.mode_name(int(k)) for k in uniq], dtype=object)
+        return names[inv].reshape(indices.shape)
+
     def set_runtime(self, params: Mapping[str, float]) -> None:
         """New parameter values that differ from the compiled ones only in ``runtime`` parameters."""
         new = self.system.parameter_values({**self.params, **params})
@@ -401,13 +272,19 @@ class CompiledSystem:
             raise InputError(f"parameter `{changed[0]}` is compiled in as a constant: compile again")
         self.params = new
         set_runtime(self._ns, {p: new[p] for p in self.runtime})
-        for m in self.modes:
-            m._params = new
+        if self.form is None:
+            for m in self.modes:
+                m._params = new
+        else:
+            self.form.generation += 1  # factorisations made with the old values are stale
         self.period = self.system.period_value(new)
         self.derived.clear()
 
     def depends_on_time(self) -> bool:
         """True if an equation or guard of any mode depends explicitly on ``t``."""
+        if self.form is not None:
+            rows = [e for alts in self.form.alt for _, e in alts] + self.form.slot_exprs
+            return any("t" in free_symbols(e) for e in rows)
         for cm in self.modes:
             exprs = list(cm.f_expr.values()) + list(cm.g_expr.values()) + [g.expr for g in cm.guards]
             if any("t" in free_symbols(e) for e in exprs):
@@ -415,11 +292,57 @@ class CompiledSystem:
         return False
 
     def mode_id(self, name: str) -> int:
+        """The index of the mode called ``name`` (InputError naming what is wrong if none)."""
+        if self.form is not None:
+            return self.intern(self.system.mode_key(name))
         if name not in self.mode_index:
             raise InputError(
                 f"model `{self.system.name}` has no mode `{name}`; modes: {', '.join(self.mode_index)}"
             )
         return self.mode_index[name]
+
+
+#: Modes of a system with components kept built at once per compiled system (rebuilt on demand).
+MODE_CACHE = 4096
+
+
+class _ModeTable:
+    """``cs.modes`` of a system with components: its modes by index, each made when first used."""
+
+    def __init__(self, cs: CompiledSystem):
+        self._cs = cs
+        self._built = LRUCache(MODE_CACHE)
+
+    def __getitem__(self, index: int) -> ComposedMode:
+        m = self._built.get(index)
+        if m is None:
+            cs = self._cs
+            m = ComposedMode(cs, cs.form, cs._keys[index], index)
+            self._built.put(index, m)
+        return m
+
+    def __len__(self) -> int:
+        return len(self._cs._keys)
+
+    def __iter__(self):
+        return (self[k] for k in range(len(self)))
+
+
+class _NameIndex:
+    """``cs.mode_index`` of a system with components: a mode's index by name (interned on use)."""
+
+    def __init__(self, cs: CompiledSystem):
+        self._cs = cs
+
+    def __getitem__(self, name: str) -> int:
+        return self._cs.mode_id(name)
+
+    def __contains__(self, name: str) -> bool:
+        try:
+            self._cs.system.mode_key(name)
+        except InputError:
+            return False
+        return True
 
 
 def lead_sign(series: np.ndarray, noise: float) -> float:

@@ -12,7 +12,7 @@ from types import MappingProxyType
 
 from ..core.errors import InputError, ModelError
 
-__all__ = ["Mode", "Parameter", "Transition", "Variable"]
+__all__ = ["Component", "Mode", "Parameter", "Transition", "Variable"]
 
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
@@ -200,3 +200,52 @@ def _as_parameters(items) -> tuple[Parameter, ...]:
     for it in items:
         out.append(it if isinstance(it, Parameter) else Parameter(str(it)))
     return tuple(out)
+
+
+@dataclass(frozen=True)
+class Component:
+    """A part of a hybrid system with discrete states of its own: a small automaton over the
+    system's shared variables.
+
+    The system's mode is the tuple of its own mode and one local mode per component; nothing
+    enumerates that product (a system of ``k`` components with three local modes each has
+    ``3**k`` modes): a mode's equations are assembled from the parts when the mode is first
+    entered. A component *owns* some of the system's variables: each of its local modes gives
+    each owned variable either a derivative or an algebraic (slave) equation, so that the role of
+    a variable may change from one local mode to another, while the system's own modes (and its
+    shared ``equations``) give the variables no component owns. Its transitions switch its local
+    mode alone; when one component switches, the others are checked at once against their own
+    guards (see :mod:`hybrid.engine.eventloop`), so that simultaneous switches are decided for all
+    components together.
+
+    Attributes
+    ----------
+    name : str
+        Component name (letters, digits, ``_``; unique in the system).
+    modes : tuple of Mode
+        Local modes; each gives an equation (``derivatives`` or ``algebraic``) for exactly the
+        variables the component owns, and may add ``definitions`` visible in its own equations,
+        guards and resets.
+    transitions : tuple of Transition
+        Guarded switches between local modes (``source`` and ``target`` name local modes); the
+        guard and reset may read every variable and definition of the system.
+    initial_mode : str, optional
+        Local mode of the system's default initial mode (default: the first).
+    description : str
+        One line saying what the component is.
+    """
+
+    name: str
+    modes: tuple = ()
+    transitions: tuple = ()
+    initial_mode: str | None = None
+    description: str = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "modes", tuple(self.modes))
+        object.__setattr__(self, "transitions", tuple(self.transitions))
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """Names of the local modes."""
+        return tuple(m.name for m in self.modes)

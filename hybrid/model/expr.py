@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 
 from ..core.errors import ExpressionError
 
-__all__ = ["FUNCTIONS", "Expr", "parse", "diff", "substitute", "free_symbols"]
+__all__ = ["FUNCTIONS", "Expr", "parse", "diff", "substitute", "free_symbols", "to_data", "from_data"]
 
 MAX_EXPRESSION_LENGTH = 10_000
 
@@ -362,7 +362,7 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
         exceeded (checked before :func:`ast.parse` runs).
     """
     if isinstance(text, Expr):  # built by a front end from parsed trees (e.g. hybrid.model.filippov)
-        unknown = sorted(text.free - set(known) - CONSTANTS.keys())
+        unknown = sorted(n for n in text.free if n not in known and n not in CONSTANTS)
         if unknown:
             raise ExpressionError(f"{where}: unknown name `{unknown[0]}` in {to_string(text, 80)!r}")
         return text
@@ -470,6 +470,94 @@ def parse(text: str, known: Mapping[str, object] | set[str] | frozenset[str], wh
 # ----------------------------------------------------------------------------
 # Tree utilities (iterative, each distinct node visited once)
 # ----------------------------------------------------------------------------
+#: Operations of :class:`Expr` nodes and the number of sub-expressions each takes (``from_data``).
+_ARITY = {"add": 2, "sub": 2, "mul": 2, "div": 2, "pow": 2, "neg": 1}
+
+
+def to_data(e: Expr) -> list:
+    """An expression as plain data (JSON-ready), its DAG kept: a list of nodes, each after its
+    sub-expressions, the last the expression itself.
+
+    A node is ``["num", value]`` (a non-finite value as the text ``"inf"``, ``"-inf"``, ``"nan"``),
+    ``["sym", name]``, ``["call", function, i]`` or ``[op, i, ...]`` with ``i`` the index of a
+    sub-expression in the list. A shared sub-expression is written once, so the data is as large
+    as the DAG (never the exponential text of :func:`to_string`), and equal expressions give
+    equal data. :func:`from_data` builds the same node (the same object: nodes are interned).
+
+    Examples
+    --------
+    >>> to_data(parse("x*x + 1", {"x"}, "e"))
+    [['sym', 'x'], ['mul', 0, 0], ['num', 1.0], ['add', 1, 2]]
+    """
+    index: dict[Expr, int] = {}
+    nodes: list[list] = []
+    stack: list[Expr] = [e]
+    while stack:  # iterative post-order: the depth of a model's expression is not Python's stack's
+        node = stack[-1]
+        if node in index:
+            stack.pop()
+            continue
+        todo = [k for k in children(node) if k not in index]
+        if todo:
+            stack.extend(reversed(todo))
+            continue
+        stack.pop()
+        op, args = node.op, node.args
+        if op == "num":
+            v = float(args[0])
+            item = ["num", v if math.isfinite(v) else repr(v)]
+        elif op == "sym":
+            item = ["sym", args[0]]
+        elif op == "call":
+            item = ["call", args[0], index[args[1]]]
+        else:
+            item = [op, *(index[a] for a in args)]
+        index[node] = len(nodes)
+        nodes.append(item)
+    return nodes
+
+
+def from_data(nodes: list) -> Expr:
+    """The expression of :func:`to_data` (the same interned node).
+
+    Raises
+    ------
+    ExpressionError
+        ``nodes`` is not what :func:`to_data` writes (an unknown operation or function, an index
+        that does not point before the node, a value that is not a number).
+    """
+    built: list[Expr] = []
+    try:
+        for k, item in enumerate(nodes):
+            op, rest = item[0], list(item[1:])
+            if op == "num" and len(rest) == 1:
+                v = rest[0]
+                if isinstance(v, bool) or not isinstance(v, int | float | str):
+                    raise ExpressionError(f"node {k}: {v!r} is not a number")
+                built.append(Expr("num", (float(v),)))
+            elif op == "sym" and len(rest) == 1 and isinstance(rest[0], str):
+                built.append(Expr("sym", (rest[0],)))
+            elif op == "call" and len(rest) == 2 and rest[0] in FUNCTIONS:
+                built.append(Expr("call", (rest[0], built[_before(rest[1], k)])))
+            elif op in _ARITY and len(rest) == _ARITY[op]:
+                built.append(Expr(op, tuple(built[_before(i, k)] for i in rest)))
+            else:
+                raise ExpressionError(f"node {k}: {str(item)[:80]} is not an expression node")
+        if not built:
+            raise ExpressionError("no node")
+    except (TypeError, IndexError, ValueError) as exc:
+        if isinstance(exc, ExpressionError):
+            raise
+        raise ExpressionError(f"not the data of an expression: {exc}") from None
+    return built[-1]
+
+
+def _before(i, k: int) -> int:
+    if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < k:
+        raise ExpressionError(f"node {k}: {i!r} is not the index of an earlier node")
+    return i
+
+
 _OPSYM = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
 
 
@@ -559,36 +647,57 @@ def diff(e: Expr, name: str) -> Expr:
     """Exact partial derivative of an expression with respect to symbol ``name``."""
     if name not in e.free:
         return ZERO
+    # Only the nodes that depend on `name` are visited (the others' derivative is 0): the cost is
+    # the size of that part, not of the whole DAG (a sum of N terms is differentiated in each of
+    # its N variables in O(N) in all, not O(N^2)).
     d: dict[Expr, Expr] = {}
-    for node in postorder([e]):
+    for node in _postorder_depending(e, name):
         op = node.op
-        if name not in node.free:
-            out = ZERO
-        elif op == "sym":
+        if op == "sym":
             out = ONE
         elif op == "neg":
-            out = neg(d[node.args[0]])
+            out = neg(d.get(node.args[0], ZERO))
         elif op == "add":
-            out = add(d[node.args[0]], d[node.args[1]])
+            out = add(d.get(node.args[0], ZERO), d.get(node.args[1], ZERO))
         elif op == "sub":
-            out = sub(d[node.args[0]], d[node.args[1]])
+            out = sub(d.get(node.args[0], ZERO), d.get(node.args[1], ZERO))
         elif op == "mul":
             a, b = node.args
-            out = add(mul(d[a], b), mul(a, d[b]))
+            out = add(mul(d.get(a, ZERO), b), mul(a, d.get(b, ZERO)))
         elif op == "div":
             a, b = node.args
-            out = sub(div(d[a], b), div(mul(a, d[b]), power(b, num(2.0))))
+            out = sub(div(d.get(a, ZERO), b), div(mul(a, d.get(b, ZERO)), power(b, num(2.0))))
         elif op == "pow":
             a, b = node.args
-            da, db = d[a], d[b]
+            da, db = d.get(a, ZERO), d.get(b, ZERO)
             if _is_num(db, 0.0):
                 out = mul(mul(b, power(a, sub(b, ONE))), da)
             else:
                 out = mul(node, add(mul(db, call("log", a)), div(mul(b, da), a)))
         elif op == "call":
             fname, a = node.args
-            out = mul(_dfunc(fname, a), d[a])
+            out = mul(_dfunc(fname, a), d.get(a, ZERO))
         else:  # pragma: no cover
             raise AssertionError(op)
         d[node] = out
     return d[e]
+
+
+def _postorder_depending(root: Expr, name: str) -> list[Expr]:
+    """The distinct nodes under ``root`` whose value depends on symbol ``name``, children first."""
+    seen: set[Expr] = set()
+    out: list[Expr] = []
+    stack: list[tuple[Expr, bool]] = [(root, False)]
+    while stack:
+        node, expanded = stack.pop()
+        if expanded:
+            out.append(node)
+            continue
+        if node in seen:
+            continue
+        seen.add(node)
+        stack.append((node, True))
+        for c in reversed(children(node)):
+            if c not in seen and name in c.free:
+                stack.append((c, False))
+    return out

@@ -61,7 +61,7 @@ def reduced_jacobian(
         The differential variables of ``A``, in state order.
     A : ndarray, shape (n, n)
     """
-    mode = mode if mode is not None else system.initial_mode
+    mode = mode if mode is not None else system.default_mode
     if mode is None:
         raise InputError(f"model `{system.name}` declares no initial mode: name the mode to linearise")
     cs = CompiledSystem(system, params)
@@ -219,14 +219,9 @@ def linear_response(
         )
     if parameter not in system.parameter_names:
         raise InputError(f"model `{system.name}` has no parameter `{parameter}`")
-    if mode not in system.parsed.modes:
-        raise InputError(
-            f"model `{system.name}` has no mode `{mode}`; modes: {', '.join(m.name for m in system.modes)}"
-        )
+    derivs, alg = _mode_equations(system, mode)
     names = list(system.variable_names)
     quad = set(system.quadratures)
-    data = system.parsed.modes[mode]
-    derivs, alg = data["derivatives"], data["algebraic"]
     d_names = [v for v in names if v in derivs and v not in quad]
     a_names = [v for v in names if v in alg]
     coords = list(coordinates) if coordinates is not None else d_names + a_names
@@ -315,6 +310,27 @@ def linear_response(
             else:
                 amps[c] = _max_abs_periodic(H, np.array(ks))
     return amps
+
+
+def _mode_equations(system: HybridSystem, mode: str) -> tuple[dict, dict]:
+    """The parsed derivatives and algebraic equations of mode ``mode`` (of a system with components:
+    its own mode's and each component's local mode's, merged). InputError for an unknown mode."""
+    if not system.components:
+        if mode not in system.parsed.modes:
+            raise InputError(
+                f"model `{system.name}` has no mode `{mode}`; modes: {', '.join(m.name for m in system.modes)}"
+            )
+        data = system.parsed.modes[mode]
+        return data["derivatives"], data["algebraic"]
+    key = system.mode_key(mode)
+    parsed = system.parsed
+    parts = [parsed.modes[system.modes[key[0]].name]] + [
+        cd["modes"][c.modes[k].name]
+        for c, cd, k in zip(system.components, parsed.components, key[1:], strict=True)
+    ]
+    derivs = {n: e for p in parts for n, e in p["derivatives"].items()}
+    alg = {n: e for p in parts for n, e in p["algebraic"].items()}
+    return derivs, alg
 
 
 def _max_abs_periodic(H: np.ndarray, ks: np.ndarray) -> np.ndarray:

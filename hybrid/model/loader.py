@@ -76,8 +76,10 @@ __all__ = [
 ]
 
 #: Entry-point group of the model-file formats other than "modes": each entry loads an object
-#: (e.g. a module) with ``build(data) -> mapping``, turning the parsed file into the content of a
-#: mode-level file, and optionally ``describe(data) -> str`` and ``draw(data, png_path)``.
+#: (e.g. a module) with ``build(data)``, turning the parsed file into the content of a mode-level
+#: file (a mapping) or into a :class:`HybridSystem` (e.g. one composed of components, which a
+#: mode-level file does not write), and optionally ``describe(data) -> str`` and
+#: ``draw(data, png_path)``.
 FORMAT_GROUP = "hybrid.model_formats"
 
 #: Largest model file read [bytes] (checked before it is read; the shipped models are about 5 KB).
@@ -248,11 +250,14 @@ def system_from_dict(data: Mapping) -> HybridSystem:
     """Build a :class:`HybridSystem` from the parsed content of a model file.
 
     A file whose ``[model] format`` names another format is first turned into
-    mode-level content by that format's ``build`` (see :data:`FORMAT_GROUP`).
+    mode-level content, or into the system itself, by that format's ``build`` (see
+    :data:`FORMAT_GROUP`).
     """
     fmt = _format(data)
     if fmt is not None:
         built = fmt.build(data)
+        if isinstance(built, HybridSystem):
+            return built
         if _format(built) is not None:
             raise ModelError("a model format must build mode-level content")
         return system_from_dict(built)

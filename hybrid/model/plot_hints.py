@@ -54,7 +54,9 @@ def derived_plot_hints(system: HybridSystem) -> dict[str, object]:
       rate, that some mode redefines; else the first one a guard uses;
       absent if none (the figure then has no panels for it).
     - ``shade_modes``: the modes in which the rate is held at 0 (the output
-      defined as 0, or the variable's derivative 0).
+      defined as 0, or the variable's derivative 0). A model's own ``[plot]``
+      may also give patterns with ``*`` (``motion|stick|*``: every mode of a
+      system with components whose first component sticks).
     - ``linear_references`` (curves drawn over a frequency response, ``{label: mode}``, see
       :func:`hybrid.model.linear.linear_response`): the initial mode, for a forced model.
 
@@ -133,8 +135,8 @@ def derived_plot_hints(system: HybridSystem) -> dict[str, object]:
             if _is_zero(held):
                 shade.append(m.name)
     hints["shade_modes"] = shade
-    if system.initial_mode is not None and system.period is not None:
-        hints["linear_references"] = {f"linear: mode `{system.initial_mode}`": system.initial_mode}
+    if system.default_mode is not None and system.period is not None:
+        hints["linear_references"] = {f"linear: mode `{system.default_mode}`": system.default_mode}
     return hints
 
 

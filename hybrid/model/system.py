@@ -39,6 +39,7 @@ from .elements import (
     _MODEL_NAME,
     _NAME,
     MAX_TEXT,
+    Component,
     Mode,
     Transition,
     _as_parameters,
@@ -61,13 +62,19 @@ __all__ = ["HybridSystem"]
 
 
 #: Size limits of a model (a model file is untrusted input: every limit has a clear error).
-MAX_VARIABLES = 200
-MAX_PARAMETERS = 1000
+MAX_VARIABLES = 20_000
+MAX_PARAMETERS = 20_000
 MAX_MODES = 1000
 MAX_TRANSITIONS = 10_000
+#: Components (e.g. contacts) of a system, and local modes and transitions of all of them together.
+MAX_COMPONENTS = 10_000
+MAX_LOCAL_MODES = 100_000
+MAX_LOCAL_TRANSITIONS = 200_000
 MAX_DEFINITIONS = 10_000
-MAX_NODES = 200_000  # distinct operation nodes of all expressions of the model, definitions expanded
+MAX_NODES = 2_000_000  # distinct operation nodes of all expressions of the model, definitions expanded
 _RESERVED = {"t", "pi"}
+#: Joins the parts of a mode's name: its own mode, then each component's local mode.
+MODE_SEPARATOR = "|"
 _PLOT_KEYS = {"force", "velocity", "displacements", "shade_modes", "units", "linear_references"}
 _DOMAINS = ("real", "positive", "nonnegative")
 
@@ -108,10 +115,14 @@ class ParsedSystem:
         (variable -> Expr).
     period : Expr or None
         The forcing period's expression in the parameters.
-    gauge : Expr or None
-        The ``[orbit] gauge`` of a family of orbits.
+    gauge : tuple of Expr or None
+        The ``[orbit] gauge`` expressions of a family of orbits (one for a string).
     autonomous : dict
         The ``[orbit]`` hints of autonomous orbits (:mod:`hybrid.model.orbit_hints`).
+    components : tuple of dict
+        Per component, in ``HybridSystem.components`` order: ``modes`` (per local mode name, as
+        ``modes`` above, with its ``halt`` text), ``transitions`` (as ``transitions`` above, in the
+        component's order) and ``owned`` (the variables it owns, in state order).
     """
 
     defs: Mapping
@@ -120,6 +131,7 @@ class ParsedSystem:
     period: object
     gauge: object
     autonomous: Mapping
+    components: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -166,7 +178,16 @@ class HybridSystem:
         Hints for periodic orbits: ``gauge``, an expression of the state
         (no ``t``) that selects one member of a family of periodic orbits
         (a neutral multiplier 1, e.g. the free offset of a stuck friction
-        element): the member with ``gauge = 0`` at the section is returned.
+        element): the member with ``gauge = 0`` at the section is returned. A list of
+        expressions serves families of several dimensions (e.g. one offset per element that may
+        stay stuck): for a family of ``q`` neutral directions, the ``q`` of them that fix those
+        directions best are set to 0 (chosen by a pivoted QR factorisation of their gradients
+        projected on the directions).
+    components : tuple of Component
+        Parts with local modes of their own (e.g. one per friction contact), composed with the
+        system's own ``modes`` on demand: the system's mode is the tuple of its own mode and one
+        local mode per component (named ``own|local1|local2|...``; with no component, the own
+        mode's name). See :class:`hybrid.Component`.
 
     Notes
     -----
@@ -208,6 +229,7 @@ class HybridSystem:
     plot: Mapping[str, object] = field(default_factory=dict)
     energy: Mapping[str, str] = field(default_factory=dict)
     orbit: Mapping[str, object] = field(default_factory=dict)
+    components: tuple = ()
 
     # ------------------------------------------------------------------
     def __post_init__(self):
@@ -223,6 +245,7 @@ class HybridSystem:
         set_(self, "plot", MappingProxyType(dict(self.plot)))
         set_(self, "energy", _frozen_map(self.energy, "energy"))
         set_(self, "orbit", MappingProxyType(dict(self.orbit)))
+        set_(self, "components", tuple(self.components))
         set_(
             self,
             "presets",
@@ -255,7 +278,27 @@ class HybridSystem:
         ):
             if len(items) > limit:
                 raise ModelError(f"{pre}: {len(items)} {what}; at most {limit} are allowed")
-        n_defs = len(self.definitions) + sum(len(m.definitions) for m in self.modes if isinstance(m, Mode))
+        if len(self.components) > MAX_COMPONENTS:
+            raise ModelError(
+                f"{pre}: {len(self.components)} components; at most {MAX_COMPONENTS} are allowed"
+            )
+        for c in self.components:
+            if not isinstance(c, Component):
+                raise ModelError(f"{pre}: components must be Component objects, got {type(c).__name__}")
+        n_local = sum(len(c.modes) for c in self.components)
+        if n_local > MAX_LOCAL_MODES:
+            raise ModelError(
+                f"{pre}: {n_local} local modes in its components; at most {MAX_LOCAL_MODES} are allowed"
+            )
+        n_local = sum(len(c.transitions) for c in self.components)
+        if n_local > MAX_LOCAL_TRANSITIONS:
+            raise ModelError(
+                f"{pre}: {n_local} transitions in its components; at most {MAX_LOCAL_TRANSITIONS} are allowed"
+            )
+        local_modes = [m for c in self.components for m in c.modes if isinstance(m, Mode)]
+        n_defs = len(self.definitions) + sum(
+            len(m.definitions) for m in [*self.modes, *local_modes] if isinstance(m, Mode)
+        )
         if n_defs > MAX_DEFINITIONS:
             raise ModelError(f"{pre}: {n_defs} definitions; at most {MAX_DEFINITIONS} are allowed")
         texts = [("title", self.title), ("reference", self.reference)]
@@ -266,9 +309,11 @@ class HybridSystem:
                 (f"unit of parameter `{p.name}`", p.unit),
                 (f"description of `{p.name}`", p.description),
             ]
-        for tr in self.transitions:
+        for tr in [*self.transitions, *(tr for c in self.components for tr in c.transitions)]:
             if isinstance(tr, Transition):
                 texts.append((f"name of transition {tr.source}->{tr.target}", tr.name))
+        for c in self.components:
+            texts.append((f"description of component `{c.name}`", c.description))
         for what, text in texts:
             if not isinstance(text, str):
                 raise ModelError(f"{pre}: {what} must be a string, got {text!r}")
@@ -344,6 +389,8 @@ class HybridSystem:
         parsed_defs = self._parse_definitions(self.definitions, base_known, {}, "definition")
         self._set_cache("defs", parsed_defs)
 
+        owned = self._validate_components(pre, vnames)
+
         mode_data: dict[str, dict] = {}
         for m in self.modes:
             where = f"mode `{m.name}`"
@@ -363,7 +410,14 @@ class HybridSystem:
                 raise ModelError(
                     f"{pre}: {where}: `{sorted(both)[0]}` has both a derivative and an algebraic equation"
                 )
-            missing = [n for n in vnames if n not in derivs and n not in m.algebraic]
+            taken = (set(m.derivatives) | set(m.algebraic)) & owned.keys()
+            if taken:
+                n = sorted(taken)[0]
+                raise ModelError(
+                    f"{pre}: {where} gives an equation for `{n}`, which component `{owned[n]}` owns "
+                    "(its local modes give its equations)"
+                )
+            missing = [n for n in vnames if n not in derivs and n not in m.algebraic and n not in owned]
             if missing:
                 raise ModelError(f"{pre}: {where} has no equation for variable(s) {', '.join(missing)}")
             for q in self.quadratures:
@@ -383,7 +437,7 @@ class HybridSystem:
                 for n, r in m.algebraic.items()
             }
             for n, e in alg_e.items():
-                if not (free_symbols(e) & set(m.algebraic)):
+                if not (free_symbols(e) & (set(m.algebraic) | owned.keys())):
                     raise ModelError(
                         f"{pre}: {where}: algebraic equation of `{n}` does not involve any slave variable of the mode"
                     )
@@ -419,7 +473,13 @@ class HybridSystem:
                     raise ModelError(f"{pre}: transition `{tr.name}` resets unknown variable `{n}`")
                 resets[n] = md["expand"](parse(r, known, f"{pre}: reset of `{n}` in transition `{tr.name}`"))
             trans.append({"guard": g, "reset": resets})
+        comp_data = self._parse_components(pre, base_known, parsed_defs, vnames, pnames)
         roots = [td["guard"] for td in trans] + [e for td in trans for e in td["reset"].values()]
+        for cd in comp_data:
+            for td in cd["transitions"]:
+                roots += [td["guard"], *td["reset"].values()]
+            for md in cd["modes"].values():
+                roots += list(md["derivatives"].values()) + list(md["algebraic"].values())
         for md in mode_data.values():
             roots += list(md["derivatives"].values()) + list(md["algebraic"].values())
             roots += [md["defs"][o] for o in self.outputs if o in md["defs"]]
@@ -441,6 +501,18 @@ class HybridSystem:
             for tr, td in zip(self.transitions, trans, strict=True):
                 if free_symbols(td["guard"]) & qs:
                     raise ModelError(f"{pre}: guard of transition `{tr.name}` depends on a quadrature")
+            for c, cd in zip(self.components, comp_data, strict=True):
+                for lname, md in cd["modes"].items():
+                    for n, e in list(md["derivatives"].items()) + list(md["algebraic"].items()):
+                        if free_symbols(e) & qs:
+                            raise ModelError(
+                                f"{pre}: component `{c.name}`, mode `{lname}`: equation of `{n}` depends on a quadrature"
+                            )
+                for tr, td in zip(c.transitions, cd["transitions"], strict=True):
+                    if free_symbols(td["guard"]) & qs:
+                        raise ModelError(
+                            f"{pre}: component `{c.name}`: guard of transition `{tr.name}` depends on a quadrature"
+                        )
         for role, n in self.energy.items():
             if not isinstance(n, str):
                 raise ModelError(f"{pre}: energy `{role}` must be a name, got {n!r}")
@@ -469,13 +541,24 @@ class HybridSystem:
             if n is not None and n not in vnames and n not in self.outputs:
                 raise ModelError(f"{pre}: plot `{key}` = `{n}` is neither a variable nor an output")
         refs = self.plot.get("linear_references", {})
+
+        def is_mode(r: object) -> bool:
+            if not self.components:
+                return r in self.mode_names
+            try:
+                self.mode_key(r)
+            except InputError:
+                return False
+            return True
+
         if not isinstance(refs, Mapping) or not all(
-            isinstance(k, str) and k.isprintable() and len(k) <= MAX_TEXT and r in self.mode_names
+            isinstance(k, str) and k.isprintable() and len(k) <= MAX_TEXT and is_mode(r)
             for k, r in refs.items()
         ):
+            known = ", ".join(self.mode_names) if not self.components else f"e.g. `{self.default_mode}`"
             raise ModelError(
                 f"{pre}: [plot] `linear_references` must map labels to modes of the model "
-                f"({', '.join(self.mode_names)}), got {dict(refs) if isinstance(refs, Mapping) else refs!r}"
+                f"({known}), got {dict(refs) if isinstance(refs, Mapping) else refs!r}"
             )
         for n in self.plot.get("displacements", ()):
             if n not in vnames and n not in self.outputs:
@@ -500,12 +583,153 @@ class HybridSystem:
                     except ValueError as exc:
                         raise ModelError(f"{pre}: preset `{pname}`: {exc}") from None
             for k in values:
-                if k not in pnames:
+                if k not in pmap:
                     raise ModelError(
                         f"{pre}: preset `{pname}` sets unknown parameter `{k}`; parameters: {', '.join(pnames)}"
                     )
         self._set_cache("modes", mode_data)
         self._set_cache("transitions", trans)
+        self._set_cache("components", tuple(comp_data))
+
+    def _validate_components(self, pre: str, vnames: list[str]) -> dict[str, str]:
+        """Names, local modes and owned variables of the components; ``{variable: component}``."""
+        owned: dict[str, str] = {}
+        seen: set[str] = set()
+        vset = set(vnames)
+        for c in self.components:
+            if not isinstance(c.name, str) or not _NAME.fullmatch(c.name):
+                raise ModelError(
+                    f"{pre}: invalid component name {_shown(c.name)} (1 to 64 letters, digits, _)"
+                )
+            if c.name in seen:
+                raise ModelError(f"{pre}: duplicate component name `{c.name}`")
+            seen.add(c.name)
+            where = f"{pre}: component `{c.name}`"
+            if not c.modes:
+                raise ModelError(f"{where} has no modes")
+            for m in c.modes:
+                if not isinstance(m, Mode):
+                    raise ModelError(f"{where}: modes must be Mode objects, got {m!r}")
+                if not isinstance(m.name, str) or not _MODE_NAME.fullmatch(m.name):
+                    raise ModelError(f"{where}: invalid mode name {m.name!r}")
+            names = [m.name for m in c.modes]
+            if len(set(names)) != len(names):
+                raise ModelError(f"{where}: duplicate mode names in {names}")
+            if c.initial_mode is not None and c.initial_mode not in names:
+                raise ModelError(
+                    f"{where}: initial mode `{c.initial_mode}` does not exist; modes: {', '.join(names)}"
+                )
+            first = c.modes[0]
+            ours = set(first.derivatives) | set(first.algebraic)
+            if not ours:
+                raise ModelError(
+                    f"{where}: mode `{first.name}` gives no equation (a component owns at least one variable)"
+                )
+            for m in c.modes[1:]:
+                theirs = set(m.derivatives) | set(m.algebraic)
+                if theirs != ours:
+                    diff = sorted(ours ^ theirs)
+                    raise ModelError(
+                        f"{where}: modes `{first.name}` and `{m.name}` give equations for different variables "
+                        f"({', '.join(diff)}): every mode of a component gives one for each variable it owns"
+                    )
+            for m in c.modes:
+                both = set(m.derivatives) & set(m.algebraic)
+                if both:
+                    raise ModelError(
+                        f"{where}: mode `{m.name}`: `{sorted(both)[0]}` has both a derivative and an algebraic equation"
+                    )
+            for n in sorted(ours):
+                if n not in vset:
+                    raise ModelError(f"{where} gives an equation for unknown variable `{n}`")
+                if n in owned:
+                    raise ModelError(f"{where}: variable `{n}` is already owned by component `{owned[n]}`")
+                if n in self.equations:
+                    raise ModelError(
+                        f"{where}: variable `{n}` has a shared equation; the component's modes give its own"
+                    )
+                if n in self.quadratures and any(n in m.algebraic for m in c.modes):
+                    raise ModelError(f"{where}: quadrature `{n}` cannot be algebraic")
+                owned[n] = c.name
+            for tr in c.transitions:
+                if not isinstance(tr, Transition):
+                    raise ModelError(f"{where}: transitions must be Transition objects, got {tr!r}")
+                for end in ("source", "target"):
+                    if getattr(tr, end) not in names:
+                        raise ModelError(
+                            f"{where}: transition `{tr.name}` has {end} mode `{getattr(tr, end)}` that does "
+                            f"not exist; modes: {', '.join(names)}"
+                        )
+        return owned
+
+    def _parse_components(self, pre, base_known, parsed_defs, vnames, pnames) -> list[dict]:
+        """Each component's local modes and transitions, parsed and expanded (as the own modes')."""
+        out = []
+        # Linear in the number of components: what every local mode without definitions of its own
+        # shares (the names it may use, the definitions it expands) is made once, not copied.
+        shared_known = base_known | set(self.definitions)
+        shared_expand = _Expander(parsed_defs)
+        vset, pset = set(vnames), set(pnames)
+        vindex = {n: i for i, n in enumerate(vnames)}
+        for c in self.components:
+            where = f"{pre}: component `{c.name}`"
+            modes: dict[str, dict] = {}
+            for m in c.modes:
+                for n in m.definitions:
+                    if n in vset or n in pset or not _NAME.fullmatch(n) or n in _RESERVED:
+                        raise ModelError(f"{where}: mode `{m.name}`: invalid definition name {_shown(n)}")
+                if m.definitions:
+                    known = shared_known | set(m.definitions)
+                    mdefs = dict(parsed_defs)
+                    mdefs.update(
+                        self._parse_definitions(
+                            m.definitions, known, parsed_defs, f"{where}: mode `{m.name}` definition"
+                        )
+                    )
+                    expand = _Expander(mdefs)
+                else:
+                    known, mdefs, expand = shared_known, parsed_defs, shared_expand
+                modes[m.name] = {
+                    "derivatives": {
+                        n: expand(parse(e, known, f"{where}: mode `{m.name}`: derivative of `{n}`"))
+                        for n, e in m.derivatives.items()
+                    },
+                    "algebraic": {
+                        n: expand(parse(e, known, f"{where}: mode `{m.name}`: algebraic equation of `{n}`"))
+                        for n, e in m.algebraic.items()
+                    },
+                    "defs": mdefs,
+                    "known": known,
+                    "expand": expand,
+                    "halt": m.halt,
+                }
+            trans = []
+            used: dict[str, set[str]] = {}
+            for tr in c.transitions:
+                if tr.name in used.setdefault(tr.source, set()):
+                    raise ModelError(
+                        f"{where}: duplicate transition name `{tr.name}` from mode `{tr.source}`"
+                    )
+                used[tr.source].add(tr.name)
+                md = modes[tr.source]
+                known = md["known"]
+                g = md["expand"](parse(tr.guard, known, f"{where}: guard of transition `{tr.name}`"))
+                if isinstance(tr.guard, str) and not (free_symbols(g) - pset):
+                    raise ModelError(
+                        f"{where}: guard of transition `{tr.name}` ({tr.guard!r}) depends on no variable and "
+                        "not on t: it can never cross zero"
+                    )
+                resets = {}
+                for n, r in tr.reset.items():
+                    if n not in vset:
+                        raise ModelError(f"{where}: transition `{tr.name}` resets unknown variable `{n}`")
+                    resets[n] = md["expand"](
+                        parse(r, known, f"{where}: reset of `{n}` in transition `{tr.name}`")
+                    )
+                trans.append({"guard": g, "reset": resets})
+            owned = sorted(set(c.modes[0].derivatives) | set(c.modes[0].algebraic), key=vindex.__getitem__)
+            out.append({"modes": modes, "transitions": trans, "owned": tuple(owned)})
+        return out
 
     def _check_continuous(self, pre: str, mode_data: Mapping[str, dict]) -> None:
         """Refuse ``sign()`` of the state or of ``t`` in a mode's equations (a discontinuous
@@ -539,15 +763,26 @@ class HybridSystem:
         gauge = self.orbit.get("gauge")
         if gauge is None:
             self._set_cache("gauge", None)
-        else:
-            if not isinstance(gauge, str):
-                raise ModelError(f"{pre}: [orbit] `gauge` must be an expression string, got {gauge!r}")
-            g = _Expander(defs)(parse(gauge, base_known | set(defs), f"{pre}: orbit gauge"))
+            return
+        texts = [gauge] if isinstance(gauge, str) else gauge
+        if not isinstance(texts, (list, tuple)) or not texts or not all(isinstance(g, str) for g in texts):
+            raise ModelError(
+                f"{pre}: [orbit] `gauge` must be an expression string or a non-empty list of them, got {gauge!r}"
+            )
+        if len(texts) > len(self.variables):
+            raise ModelError(
+                f"{pre}: [orbit] `gauge` lists {len(texts)} expressions, more than the {len(self.variables)} "
+                "variables a family could leave free; list one per element that may stay fixed"
+            )
+        gauges = []
+        for text in texts:
+            g = _Expander(defs)(parse(text, base_known | set(defs), f"{pre}: orbit gauge"))
             if "t" in free_symbols(g) or not (free_symbols(g) & {v.name for v in self.variables}):
-                raise ModelError(f"{pre}: orbit gauge {gauge!r} must depend on the state and not on t")
+                raise ModelError(f"{pre}: orbit gauge {text!r} must depend on the state and not on t")
             if free_symbols(g) & set(self.quadratures):
-                raise ModelError(f"{pre}: orbit gauge {gauge!r} depends on a quadrature")
-            self._set_cache("gauge", g)
+                raise ModelError(f"{pre}: orbit gauge {text!r} depends on a quadrature")
+            gauges.append(g)
+        self._set_cache("gauge", tuple(gauges))
 
     def _set_cache(self, key: str, value) -> None:
         """Keep a part of :attr:`parsed` while the system is validated (construction only)."""
@@ -611,12 +846,112 @@ class HybridSystem:
         """Names of the modes."""
         return tuple(m.name for m in self.modes)
 
+    @property
+    def composed(self) -> bool:
+        """True if the system has components (its modes are composed on demand)."""
+        return bool(self.components)
+
+    @property
+    def default_mode(self) -> str | None:
+        """Name of the system's initial mode: its own ``initial_mode`` and, for each component, its
+        ``initial_mode`` (its first mode where it names none); None where the system names none."""
+        if self.initial_mode is None:
+            return None
+        if not self.components:
+            return self.initial_mode
+        return MODE_SEPARATOR.join(
+            [self.initial_mode, *(c.initial_mode or c.modes[0].name for c in self.components)]
+        )
+
+    @property
+    def local_mode_names(self) -> tuple[str, ...]:
+        """The modes of the system's parts: its own modes, then each component's local modes named
+        ``component.mode``; without components, :attr:`mode_names`. A few per component, never
+        their product: what a branch's table has a time-fraction column for."""
+        return (*self.mode_names, *(f"{c.name}.{m}" for c in self.components for m in c.mode_names))
+
+    def local_modes_of(self, name: str) -> tuple[str, ...]:
+        """The parts' modes (see :attr:`local_mode_names`) that mode ``name`` is made of: its own
+        mode, then one local mode per component; without components, ``(name,)``."""
+        if not self.components:
+            return (name,)
+        parts = name.split(MODE_SEPARATOR)
+        return (parts[0], *(f"{c.name}.{p}" for c, p in zip(self.components, parts[1:], strict=True)))
+
+    def mode_key(self, name: str) -> tuple[int, ...]:
+        """The indices of a mode's parts: its own mode, then the local mode of each component.
+
+        A mode of a system with components is named ``own|local1|local2|...`` (one local mode
+        name per component, in order); without components, by its own name.
+
+        Raises
+        ------
+        InputError
+            The name has the wrong number of parts or names a mode that does not exist (the
+            message names the part).
+        """
+        if not isinstance(name, str):
+            raise InputError(f"model `{self.name}`: a mode name must be a string, got {name!r}")
+        parts = name.split(MODE_SEPARATOR) if self.components else [name]
+        if len(parts) != 1 + len(self.components):
+            raise InputError(
+                f"model `{self.name}`: mode `{name[:80]}` has {len(parts)} parts; a mode of this model names its "
+                f"own mode and the mode of each of its {len(self.components)} components, joined by "
+                f"`{MODE_SEPARATOR}` (e.g. `{self.default_mode or ''}`)"
+            )
+        own = {m.name: k for k, m in enumerate(self.modes)}
+        if parts[0] not in own:
+            raise InputError(
+                f"model `{self.name}` has no mode `{parts[0]}`; modes: {', '.join(self.mode_names)}"
+            )
+        key = [own[parts[0]]]
+        for c, part in zip(self.components, parts[1:], strict=True):
+            names = c.mode_names
+            if part not in names:
+                raise InputError(
+                    f"model `{self.name}`: component `{c.name}` has no mode `{part}`; its modes: {', '.join(names)}"
+                )
+            key.append(names.index(part))
+        return tuple(key)
+
+    def mode_label(self, key: tuple[int, ...]) -> str:
+        """The name of the mode whose parts have the indices ``key`` (see :meth:`mode_key`)."""
+        if not self.components:
+            return self.modes[key[0]].name
+        return MODE_SEPARATOR.join(
+            [
+                self.modes[key[0]].name,
+                *(c.modes[k].name for c, k in zip(self.components, key[1:], strict=True)),
+            ]
+        )
+
     def mode(self, name: str) -> Mode:
-        """The mode called ``name`` (ValueError listing the modes if there is none)."""
-        for m in self.modes:
-            if m.name == name:
-                return m
-        raise InputError(f"model `{self.name}` has no mode `{name}`; modes: {', '.join(self.mode_names)}")
+        """The mode called ``name``: one of :attr:`modes`, or a mode of a system with components,
+        composed from its parts (their equations merged; ``halt`` if a part halts).
+
+        Raises
+        ------
+        InputError
+            No such mode (the message lists the modes, or names the part that does not exist).
+        """
+        if not self.components:
+            for m in self.modes:
+                if m.name == name:
+                    return m
+            raise InputError(f"model `{self.name}` has no mode `{name}`; modes: {', '.join(self.mode_names)}")
+        key = self.mode_key(name)
+        parts = [self.modes[key[0]], *(c.modes[k] for c, k in zip(self.components, key[1:], strict=True))]
+        halts = [m.halt for m in parts if m.halt]
+        halt = "; ".join(halts)
+        if len(halt) > 4 * MAX_TEXT:  # many parts halt: the first messages, and how many
+            tail = f" ... ({len(halts)} parts halt)"
+            halt = halt[: 4 * MAX_TEXT - len(tail)] + tail
+        return Mode(
+            name,
+            derivatives={n: e for m in parts for n, e in m.derivatives.items()},
+            algebraic={n: e for m in parts for n, e in m.algebraic.items()},
+            halt=halt,
+        )
 
     def algebraic_variables(self, mode: str) -> tuple[str, ...]:
         """Names of the slave (algebraic) variables of ``mode``."""

@@ -282,7 +282,7 @@ def autonomous_orbit(
     check_orbit_inputs(system, options, settings, forced=False)
     samples_per_period = settings.samples_per_period
     phase = resolve_phase(system, phase)
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
@@ -341,7 +341,7 @@ def initial_guess(fm: FlowMap, phase: str, y, mode0: str, Tg: float, periods: in
                 "cycle through it from this start (another start, x0, or phase='anchor')",
             )
         last = hits[-1]
-        chain = [e for e in tr.events if e.t == last.t and (e is last or e.chained)]
+        chain = [e for e in tr.events if e.t == last.t and (e is last or (e.chained and not e.coincident))]
         T = hits[-1].t - hits[-2].t if len(hits) > 1 else Tg
         return chain[-1].x_plus.copy(), chain[-1].target, T
     # the anchor: the middle of the longest mode interval of the last period guess

@@ -78,6 +78,10 @@ class Equilibrium:
         Why it failed, a code of :data:`hybrid.core.status.SOLVE_REASONS`
         (``"not-converged"``, ``"diverged"``, ``"solve-failed"``, ``"singular"``); ``""`` if
         converged.
+    margin : float
+        How far the mode's guards are from firing there: the least of ``-h`` (a guard that fires
+        rising), ``h`` (falling) and ``|h|`` (either way) over its guards, in their units; negative
+        where it is not admissible, zero at a boundary equilibrium (``inf`` without guards).
     """
 
     system: HybridSystem
@@ -93,6 +97,7 @@ class Equilibrium:
     residual: float
     message: str
     reason: str = ""
+    margin: float = math.inf
 
     @property
     def converged(self) -> bool:
@@ -217,6 +222,16 @@ def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
             res = float(np.max(np.abs(f))) if f.size else 0.0
             A = reduced_jacobian(cm, y, d)
             if res <= tol * max(1.0, float(np.max(np.abs(y[d]))) if d.size else 1.0):
+                # one more step where it lowers the residual: the state to rounding, not to tol (an
+                # equilibrium 1e-12 off moved a Hopf point by 9e-13 on belt_stribeck)
+                if res > 0.0:
+                    z = y.copy()
+                    z[d] -= np.linalg.lstsq(A, f, rcond=None)[0]
+                    z = cm.solve_algebraic(0.0, z)
+                    fz = cm.rhs(0.0, z)[d]
+                    rz = float(np.max(np.abs(fz)))
+                    if np.all(np.isfinite(z)) and rz < res:
+                        y, res, A = z, rz, reduced_jacobian(cm, z, d)
                 break
             if it == max_iter:
                 msg = f"Newton's method did not converge ({max_iter} iterations, max |f| = {res:.3g})"
@@ -244,6 +259,7 @@ def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
     admissible = (
         bool(np.all(np.where(dirs > 0, h < 0, np.where(dirs < 0, h > 0, h != 0)))) if h.size else True
     )
+    margin = float(np.min(np.where(dirs > 0, -h, np.where(dirs < 0, h, np.abs(h))))) if h.size else math.inf
     return Equilibrium(
         system=system,
         params=dict(params),
@@ -254,6 +270,7 @@ def _solve(system, params, cm, y, tol, max_iter) -> Equilibrium:
         eigenvalues=ev,
         stability=_verdict(ev, 1e-12) if not msg else "unknown",
         admissible=admissible,
+        margin=margin,
         status=SolveStatus.FAILED if reason else SolveStatus.CONVERGED,
         residual=res,
         message=msg or "converged",
@@ -277,12 +294,13 @@ class HopfPoint:
     frequency : float
         ``|Im lambda|`` of the critical eigenvalue [rad/s] (0 for a real one).
     status : str
-        ``"located"`` (the bracket closed to the tolerance) or ``"bracketed"`` (the iterations ran
-        out first: the point lies in ``interval``).
+        ``"located"`` (the bracket closed to the tolerance, or to the rounding of the eigenvalues
+        where that is wider) or ``"bracketed"`` (the iterations ran out first: the point lies in
+        ``interval``).
     accuracy : float
-        Bound on the error of ``parameter`` (the last bracket's width).
+        Bound on the error of ``parameter``: its largest distance to the ends of ``interval``.
     interval : tuple of float
-        The last bracket.
+        The last bracket, widened by what the rounding of the eigenvalues moves the crossing.
     """
 
     kind: str
@@ -381,15 +399,24 @@ def locate_hopf(
         if abs(b - a) <= tol * max(1.0, abs(b)) or gc == 0.0:
             located = True
             break
-    exact = gb == 0.0  # the secant landed on the crossing itself
     eq = cache[b]
     om = abs(float(eq.eigenvalues[0].imag))
+    # The interval: the last bracket, widened by what the rounding of the eigenvalues (relative to
+    # the largest, a hundred times the machine's) moves the crossing, at the bracket's slope.
+    slope = abs((gb - ga) / (b - a)) if b != a else math.inf
+    lam = float(np.max(np.abs(eq.eigenvalues))) if eq.eigenvalues.size else 0.0
+    noise = 100.0 * np.finfo(float).eps * lam / slope if slope > 0 else math.inf
+    if gb == 0.0:  # the secant landed on the crossing of the computed real part itself
+        a = b
+    lo, hi = min(a, b) - noise, max(a, b) + noise
+    # located: to the tolerance, or to the rounding where the tolerance asks for less than that
+    located = max(b - lo, hi - b) <= max(tol * max(1.0, abs(b)), 4.0 * noise)
     return HopfPoint(
         kind="hopf" if om > 1e-9 else "real-eigenvalue",
         parameter=b,
         equilibrium=eq,
         frequency=om,
         status="located" if located else "bracketed",
-        accuracy=0.0 if exact else abs(b - a),
-        interval=(min(a, b), max(a, b)),
+        accuracy=max(b - lo, hi - b),
+        interval=(lo, hi),
     )

@@ -197,7 +197,12 @@ class FlowMap:
             )
         tau = events[hit].t
         last = hit
-        while last + 1 < len(events) and events[last + 1].chained and events[last + 1].t == tau:
+        while (
+            last + 1 < len(events)
+            and events[last + 1].chained
+            and not events[last + 1].coincident
+            and events[last + 1].t == tau
+        ):
             last += 1
         chain = events[hit : last + 1]
         end = chain[-1].x_plus.copy()

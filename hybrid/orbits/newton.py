@@ -17,11 +17,12 @@ import numpy as np
 
 from ..core.errors import GrazingSwitchError
 from ..engine.trajectory import DeferredTrajectory, Trajectory
-from ..integrators.affine import exact_flows
+from ..integrators.flows import exact_flows
 from .orbit import (
     PeriodicOrbit,
     balanced,
     failed_orbit,
+    family_dimension,
     finish_orbit,
     is_family,
 )
@@ -124,6 +125,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     note = ""
     reason = ""  # a code if the orbit is not accepted although its residual met tol
     family = False
+    picked = None  # the gauges that hold the member of a family (indices), on a family with gauges
     it = 0
     rephased = 0
     resonant = False  # I - M singular with the mismatch outside its range, at the last iteration
@@ -179,7 +181,12 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 J, J_here, M_y, pending = None, False, None, None
                 continue
         g = shooter.gauge(y)
-        gauge_bad = family and g is not None and abs(g[0]) > tol * scale
+        gauge_bad = (
+            family
+            and picked is not None
+            and picked.size > 0
+            and float(np.max(np.abs(g.values[picked]))) > tol * scale
+        )
         if res_norm <= tol and not gauge_bad and J is None and integ.exact and 0 < it < max_iter:
             # the exact integrator: judge the correction with the exact Jacobian here (cheap)
             M_y = shooter.monodromy(tr)
@@ -257,8 +264,14 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             Js, bs = balanced(J)
             sv = np.linalg.svd(Js, compute_uv=False)
             family = is_family(sv)
-            A = np.vstack([Js, g[1][d] * bs]) if (family and g is not None) else Js
-            rhs = _rhs(r, g, family)
+            # on a family, the gauges that fix its directions (picked against its null space)
+            picked = (
+                g.pick(np.linalg.svd(Js)[2], family_dimension(sv), d, bs)
+                if (family and g is not None)
+                else None
+            )
+            A = np.vstack([Js, g.grad[picked][:, d] * bs]) if picked is not None else Js
+            rhs = _rhs(r, g, picked)
             w = np.concatenate([1.0 / bs, np.ones(rhs.size - bs.size)])  # rows in balanced units
             pinv = np.linalg.pinv(A, rcond=rcond) * w[None, :]  # rhs -> balanced step
             step_b = pinv @ rhs
@@ -297,7 +310,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
                 t0,
                 step,
                 pinv,
-                family,
+                picked,
                 float(np.linalg.norm(rhs / w)),
                 ahead,
                 phi0=float(np.linalg.norm(step_b)),
@@ -421,7 +434,7 @@ def coarse_shooter(shooter: Shooter, tol: float) -> Shooter | None:
     f = rc / o.rtol
     atol = {k: v * f for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol * f
     opts = replace(o, rtol=rc, atol=atol, atol_default=o.atol_default * f)
-    return Shooter(shooter.system, shooter.params, opts, shooter.free)
+    return Shooter(shooter.system, shooter.params, opts, shooter.free, shooter.periods)
 
 
 def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int, max_iter: int) -> bool:
@@ -469,12 +482,13 @@ ARMIJO = 1e-4
 MAX_BACKTRACKS = 8
 
 
-def _rhs(r: np.ndarray, g, family: bool) -> np.ndarray:
-    """Right-hand side of the Newton system: ``-r``, and ``-gauge`` on a family with a gauge."""
-    return np.concatenate([-r, [-g[0]]]) if (family and g is not None) else -r
+def _rhs(r: np.ndarray, g, picked: np.ndarray | None) -> np.ndarray:
+    """Right-hand side of the Newton system: ``-r``, and ``-gauge`` for the gauges ``picked`` on a
+    family (:meth:`hybrid.orbits.gauge.Gauge.pick`)."""
+    return np.concatenate([-r, -g.values[picked]]) if picked is not None else -r
 
 
-def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0, samples=None, phi0=None):
+def _line_search(shooter, nw, y, mode0, t0, step, pinv, picked, res0, samples=None, phi0=None):
     """Armijo backtracking along the Newton step ``step = pinv @ rhs(y)``.
 
     The first ``lam = 1, 1/2, ...`` is taken where the residual norm ``|rhs|`` decreases
@@ -512,7 +526,7 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, family, res0, samples=No
             else shooter.run(y_new, mode0, t0)
         )
         if tr.success and np.all(np.isfinite(tr.y_final)):
-            rhs = _rhs(nw.residual(tr, y_new), shooter.gauge(y_new), family)
+            rhs = _rhs(nw.residual(tr, y_new), shooter.gauge(y_new), picked)
             phi = float(np.linalg.norm(pinv @ rhs))
             if (
                 phi <= (1.0 - ARMIJO * lam) * phi0

@@ -67,7 +67,7 @@ class PeriodicOrbit:
     multipliers : ndarray of complex
         Floquet multipliers, one per entry of ``state_names``, by decreasing modulus.
     multiplier_kinds : tuple of str
-        ``"floquet"``; ``"neutral"`` (the multiplier 1 of a family of orbits,
+        ``"floquet"``; ``"neutral"`` (a multiplier 1 of a family of orbits, one per free coordinate,
         e.g. the free offset of a stuck friction element); ``"structural"``
         (a zero from a slave variable, e.g. the massless point of a
         friction-spring element while it slips).
@@ -142,6 +142,13 @@ class PeriodicOrbit:
     def stable(self) -> bool | None:
         """True if stable, False if unstable, None if neutral (marginally stable)."""
         return {"stable": True, "unstable": False}.get(self.stability)
+
+    @property
+    def local_fractions(self) -> dict:
+        """Fraction of the period each part of the system spends in each of its modes, over
+        :attr:`hybrid.HybridSystem.local_mode_names` (``component.mode`` for a component's local
+        mode); without components, :attr:`mode_fractions`."""
+        return local_fractions(self.system, self.mode_fractions)
 
     @property
     def transitions_per_period(self) -> int:
@@ -247,7 +254,6 @@ class _Extrema:
     def __init__(self, cs: CompiledSystem, tr: Trajectory, affine: list | None = None):
         self.cs, self.tr = cs, tr
         self.affine = affine  # the modes' exact flows (the exact integrator): exact derivatives
-        self.mid = {name: k for k, name in enumerate(cs.mode_index)}
         self._jets: dict[int, tuple] = {}
         self._polys: dict[int, np.ndarray] = {}
         self._outputs = tr.outputs
@@ -435,9 +441,23 @@ def mode_fractions(tr: Trajectory, period: float) -> dict[str, float]:
     return fr
 
 
+def local_fractions(system: HybridSystem, fractions: dict[str, float]) -> dict[str, float]:
+    """Time fractions per mode (:func:`mode_fractions`) summed per mode of each part of the system
+    (see :attr:`hybrid.HybridSystem.local_mode_names`); without components, a copy."""
+    if not system.components:
+        return dict(fractions)
+    out: dict[str, float] = {}
+    for m, f in fractions.items():
+        for part in system.local_modes_of(m):
+            out[part] = out.get(part, 0.0) + f
+    return out
+
+
 def _classify(
-    mult: np.ndarray, n_struct: int, family: bool, tol: float
+    mult: np.ndarray, n_struct: int, family: bool, tol: float, q: int = 1
 ) -> tuple[np.ndarray, tuple[str, ...], str]:
+    """Multipliers by decreasing modulus, their kinds (``q`` neutral ones, those nearest 1, on a
+    family of dimension ``q``), and the stability verdict."""
     order = np.argsort(-np.abs(mult), kind="stable")
     mult = mult[order]
     kinds = ["floquet"] * mult.size
@@ -445,8 +465,8 @@ def _classify(
         kinds[k] = "structural"
     if family:
         cand = [k for k in range(mult.size) if kinds[k] == "floquet"]
-        k = min(cand, key=lambda k: abs(mult[k] - 1.0))
-        kinds[k] = "neutral"
+        for k in sorted(cand, key=lambda k: abs(mult[k] - 1.0))[: max(1, q)]:
+            kinds[k] = "neutral"
     fl = np.array([abs(m) for m, kd in zip(mult, kinds, strict=True) if kd == "floquet"])
     if fl.size and fl.max() > 1.0 + tol:
         verdict = "unstable"
@@ -465,6 +485,14 @@ FAMILY_TOL = 1e-8
 def is_family(sv: np.ndarray) -> bool:
     """True if the singular values ``sv`` (descending) of ``I - M`` show a neutral direction."""
     return bool(sv[-1] <= FAMILY_TOL * max(1.0, sv[0]))
+
+
+def family_dimension(sv: np.ndarray) -> int:
+    """The number of neutral directions the singular values ``sv`` (descending) of ``I - M`` show
+    (the dimension of the family of orbits; 0 for an isolated orbit)."""
+    if not sv.size:
+        return 0
+    return int(np.count_nonzero(sv <= FAMILY_TOL * max(1.0, sv[0])))
 
 
 #: Coordinates whose balancing factors (:func:`balance_scales`) stay within this ratio of each other
@@ -576,12 +604,18 @@ def finish_orbit(
     # the family test in balanced units, as Newton's method's; cond, the error bound reported, in
     # the state's own units (IDA controls each variable's error relative to its size: the balanced
     # cond, smaller where velocities are hundreds of times the displacements, could understate it)
-    family = is_family(np.linalg.svd(balanced(IA)[0], compute_uv=False))
-    sv = np.linalg.svd(IA, compute_uv=False)
+    IAb, bsa = balanced(IA)
     g = shooter.gauge(y)
-    # cond = largest / smallest singular value that counts (the family direction removed when
-    # the gauge fixes it); inf where that one is 0, e.g. I - M = 0 (every state a periodic orbit).
-    k = -2 if (family and g is not None and sv.size > 1) else -1
+    svb = np.linalg.svd(IAb, compute_uv=False)
+    family = is_family(svb)
+    q = family_dimension(svb)
+    picked = (
+        g.pick(np.linalg.svd(IAb)[2], q, nw.d, bsa) if (family and g is not None) else np.zeros(0, dtype=int)
+    )
+    sv = np.linalg.svd(IA, compute_uv=False)
+    # cond = largest / smallest singular value that counts (the family directions removed where
+    # gauges fix them); inf where that one is 0, e.g. I - M = 0 (every state a periodic orbit).
+    k = -1 - picked.size if sv.size > picked.size else -1
     cond = float(sv[0] / sv[k]) if sv.size and sv[k] > 0 else math.inf
     mult = np.concatenate([np.linalg.eigvals(A), np.zeros(ns - nw.d.size)])
     # Structural zeros: slave variables at the section, plus a dimension lost in any mode visited.
@@ -589,7 +623,7 @@ def finish_orbit(
     visited = {mode0} | {e.target for e in tr.events}
     n_struct = ns - min(nd[m] for m in visited)
     mtol = max(1e-6, 100.0 * shooter.options.rtol)
-    mult, kinds, verdict = _classify(mult, n_struct, family, mtol)
+    mult, kinds, verdict = _classify(mult, n_struct, family, mtol, q)
     # Amplitudes (variables and outputs): extrema located on the flow, not read from samples.
     amp, hpp = {}, {}
     ext = _Extrema(shooter.cs, tr, shooter.integrator.exact_flows(shooter.cs))
@@ -620,26 +654,29 @@ def finish_orbit(
         }
     msg = note
     if family:
-        # the direction along the family (the null vector of I - M), named by its largest components
-        v = np.linalg.svd(IA)[2][-1]
-        along = [names[nw.d[i]] for i in np.flatnonzero(np.abs(v) >= 0.3 * np.max(np.abs(v)))]
-        gauge = str(sys_.orbit.get("gauge"))
-        fixes = g is not None and abs(float(g[1][nw.d] @ v)) > 1e-6 * max(
-            float(np.linalg.norm(g[1][nw.d])), 1e-300
+        # the directions along the family (null vectors of I - M), named by their largest components
+        V = np.abs(np.linalg.svd(IA)[2][-max(q, 1) :])
+        mag = np.max(V, axis=0)
+        along = [names[nw.d[i]] for i in np.flatnonzero(mag >= 0.3 * np.max(mag))]
+        shown = ", ".join(along[:8]) + (", ..." if len(along) > 8 else "")
+        msg += (
+            f"a family of periodic orbits ({f'{q} neutral multipliers 1' if q > 1 else 'neutral multiplier 1'}; "
+            f"the orbits differ along {shown}); "
         )
-        msg += f"a family of periodic orbits (neutral multiplier 1; the orbits differ along {', '.join(along)}); "
-        if fixes:
-            msg += f"the member with gauge `{gauge}` = 0 is returned; "
-        elif g is not None:
-            msg += (
-                f"the model's gauge `{gauge}` does not pick a member (it does not change along this family): "
-                "the member nearest the guess is returned; "
-            )
-        else:
+        if g is None:
             msg += (
                 "the member nearest the guess is returned (the model declares no `[orbit] gauge`: an expression "
                 "of the state that is 0 on the member wanted, e.g. a stuck element's offset, picks one; see README); "
             )
+        elif not picked.size:
+            msg += (
+                f"none of the model's gauges ({g.describe(range(g.size))[:200]}) moves along it: the member "
+                "nearest the guess is returned; "
+            )
+        else:
+            msg += f"the member with {'gauges' if picked.size > 1 else 'gauge'} {g.describe(picked)} = 0 is returned; "
+            if picked.size < q:
+                msg += f"{q - picked.size} of its directions held by no gauge (nearest the guess there); "
     err = cond * shooter.noise_rtol
     if sv.size and sv[0] == 0.0:
         msg += (

@@ -256,7 +256,7 @@ def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
             return None
         src, dst = cs.mode_id(ev.source), cs.mode_id(ev.target)
         cm = cs.modes[src]
-        k = next((g.index for g in cm.guards if g.name == ev.guard), None)
+        k = cm.guard_slot(ev.guard)
         if k is None or cm.guards[k].target != dst:
             return None
         reset = cm.guards[k].reset_expr
@@ -267,7 +267,7 @@ def sequence_events(tr, cs, t0: float, period: float) -> list[Switch] | None:
         # mode's differential variables, the only rows the jump reads: its slave rows are re-solved)
         r0 = np.asarray(ev.x_plus, dtype=float) - R_y @ np.asarray(ev.x_minus, dtype=float)
         step = (src, k, dst, R_y, r0)
-        if ev.chained:
+        if ev.chained and not ev.coincident:
             if not out or out[-1].target != src:
                 return None
             out[-1] = Switch(out[-1].t, (*out[-1].steps, step))

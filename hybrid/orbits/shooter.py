@@ -9,7 +9,7 @@ recently compiled systems for reuse.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledSystem, lend
 from ..model.expr import diff
 from ..model.system import HybridSystem
+from .gauge import Gauge, gauge_functions
 
 __all__ = ["Shooter"]
 
@@ -38,6 +39,9 @@ class Shooter:
     options : SolverOptions
     free : str, optional
         A parameter to differentiate the map by (for continuation).
+    periods : int
+        Forcing periods the map spans (2: the map of orbits of twice the forcing period, e.g. the
+        branch born at a period doubling).
 
     Attributes
     ----------
@@ -51,9 +55,11 @@ class Shooter:
         params: Mapping[str, float],
         options: SolverOptions,
         free: str | None = None,
+        periods: int = 1,
     ):
         self.system = system
         self.options = options
+        self.periods = int(periods)
         self.integrator = integrator(options.integrator)
         self.free = free
         self.names = system.variable_names
@@ -65,7 +71,7 @@ class Shooter:
         self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
         nb = len(self.names)
         self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
-        self._gauge = _gauge_functions(system)
+        self._gauge = gauge_functions(system)
         pe = system.parsed.period
         self._dT = diff(pe, free) if free else None
         self.nfev = 0
@@ -86,11 +92,11 @@ class Shooter:
             cs.set_runtime(self.params)  # only run-time parameters changed: no compilation
         else:
             self.cs = self._compiled()
-        self.period = self.cs.period
-        if self.period is None:
+        if self.cs.period is None:
             raise ModelError(
                 f"model `{self.system.name}` declares no forcing `period`: periodic orbits need one"
             )
+        self.period = self.periods * self.cs.period
         if self.free is not None:
             self.ext_values = np.array([self.params[self.free]])
         else:
@@ -118,7 +124,9 @@ class Shooter:
 
     def dT(self) -> float:
         """d(period)/d(free parameter)."""
-        return float(compile_scalar(self._dT, {}, self.params)(())) if self._dT is not None else 0.0
+        if self._dT is None:
+            return 0.0
+        return self.periods * float(compile_scalar(self._dT, {}, self.params)(()))
 
     # ------------------------------------------------------------------
     def run(self, y0: np.ndarray, mode0: str, t0: float, *, samples: int | None = None) -> Trajectory:
@@ -165,29 +173,16 @@ class Shooter:
             base.t_start, base.y[0], base.mode_start, base.t_final, base.events, self.ext_values
         )
 
-    def gauge(self, y: np.ndarray) -> tuple[float, np.ndarray] | None:
-        """The model's gauge at state ``y`` and its gradient in the state (None without a gauge)."""
+    def gauge(self, y: np.ndarray) -> Gauge | None:
+        """The model's gauges at state ``y`` with their gradients in the state (None without a gauge)."""
         if self._gauge is None:
             return None
-        fn, grad = self._gauge
+        fns, grads = self._gauge
         v = [0.0, *y.tolist(), *(self.params[p.name] for p in self.system.parameters)]
-        return float(fn(v)), np.array([g(v) for g in grad])
-
-
-def _gauge_functions(system: HybridSystem) -> tuple[Callable, list[Callable]] | None:
-    """The model's ``[orbit] gauge`` and its gradient, compiled once per system with the parameters
-    read at call time (``v = [t, state..., parameters...]``); None without a gauge."""
-    gauge = system.parsed.gauge
-    if gauge is None:
-        return None
-
-    def make() -> tuple[Callable, list[Callable]]:
-        names = system.variable_names
-        slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
-        slots.update({p.name: len(names) + 1 + j for j, p in enumerate(system.parameters)})
-        return (
-            compile_scalar(gauge, slots, {}),
-            [compile_scalar(diff(gauge, nm), slots, {}) for nm in names],
-        )
-
-    return system.cache.get("gauge_functions", make)
+        G = np.zeros((len(fns), len(self.names)))
+        for r, row in enumerate(grads):
+            for i, fn in row:
+                G[r, i] = fn(v)
+        texts = self.system.orbit["gauge"]
+        texts = (texts,) if isinstance(texts, str) else tuple(texts)
+        return Gauge(np.array([float(fn(v)) for fn in fns]), G, texts)

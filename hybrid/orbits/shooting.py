@@ -89,7 +89,7 @@ def shoot_orbit(
     settings = ShootingOptions() if settings is None else settings
     check_orbit_inputs(system, options, settings, forced=True)
     transient_periods = settings.transient_periods
-    mode0 = mode0 if mode0 is not None else system.initial_mode
+    mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)

@@ -12,6 +12,7 @@ quantity to draw gets the displacement panels only, never an empty axis.
 
 from __future__ import annotations
 
+from fnmatch import fnmatchcase
 from pathlib import Path
 
 import numpy as np
@@ -49,12 +50,23 @@ def _new_figure(figsize: tuple[float, float], layout: str | None = "constrained"
     return fig
 
 
+def _shade_pattern(mode: str, shade: set) -> str | None:
+    """The entry of ``shade`` that names ``mode``: the mode itself, or a pattern with ``*`` that matches
+    it (``motion|stick|*``: every mode of a system with components whose first component sticks; mode
+    names hold no ``*``)."""
+    if mode in shade:
+        return mode
+    return next((p for p in shade if "*" in p and fnmatchcase(mode, p)), None)
+
+
 def _shade_modes(ax, traj: Trajectory, shade: set, t_lo: float = -float("inf")) -> bool:
-    """Shade the intervals of the modes in ``shade`` (from ``t_lo`` on); True if any was shaded."""
+    """Shade the intervals of the modes in ``shade`` (names or patterns, see :func:`_shade_pattern`)
+    from ``t_lo`` on; True if any was shaded."""
     shaded_any = False
     for t0, t1, mode in traj.mode_intervals():
-        if mode in shade and t1 > t_lo:
-            ax.axvspan(max(t0, t_lo), t1, color="C2", alpha=0.15, lw=0, label=None if shaded_any else mode)
+        hit = _shade_pattern(mode, shade) if t1 > t_lo else None
+        if hit is not None:
+            ax.axvspan(max(t0, t_lo), t1, color="C2", alpha=0.15, lw=0, label=None if shaded_any else hit)
             shaded_any = True
     return shaded_any
 

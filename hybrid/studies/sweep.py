@@ -27,11 +27,13 @@ import json
 import math
 import os
 import queue
+import re
 import socket
+import stat
 import time
 import traceback
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field, fields, is_dataclass
 from itertools import product
@@ -41,14 +43,16 @@ import numpy as np
 
 from ..continuation.branch import forcing_parameter
 from ..continuation.frc import default_range, frequency_response
-from ..core.budget import time_limit
+from ..core.budget import current_deadline, deadline_passed, limit_text, restore_deadline, time_limit
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
+from ..core.files import FolderLock, write_atomic
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
 from ..engine.io import to_json
 from ..model.elements import Mode, Parameter, Transition, Variable
+from ..model.expr import Expr, from_data, to_data
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem
 
@@ -165,8 +169,9 @@ def linear_axis(name: str, start: float, stop: float, step: float) -> Axis:
     if stop < start:
         raise InputError(f"axis `{name}`: needs START <= STOP, got {start!r} > {stop!r}")
     n = (stop - start) / step
-    if n + 1 > MAX_POINTS:
-        raise InputError(f"axis `{name}`: {math.floor(n) + 1} values, more than {MAX_POINTS}")
+    if not n + 1 <= MAX_POINTS:  # (n may be inf: a tiny step)
+        many = f"{math.floor(n) + 1}" if n < 1e9 else f"about {n:.3g}" if math.isfinite(n) else "too many"
+        raise InputError(f"axis `{name}`: {many} values, more than {MAX_POINTS}")
     k = round(n)
     if abs(n - k) <= 1e-9 * max(1.0, n):
         values = np.linspace(start, stop, k + 1) if k > 0 else np.array([start])
@@ -215,10 +220,23 @@ def _point_name(index: tuple[int, ...]) -> str:
     return "point-" + "-".join(f"{i:04d}" for i in index) + ".json"
 
 
+#: A point file's name (its indices along the axes).
+_POINT_NAME = re.compile(r"point-(\d{4,6}(?:-\d{4,6})*)\.json")
+
+
 # ----------------------------------------------------------------------------------------------
 # The model as plain data: its hash, and how it travels to worker processes
+#: Key of an expression in :func:`model_data` (``{EXPR_KEY: hybrid.model.expr.to_data(e)}``): a model
+#: built by a front end (a Filippov system, :func:`hybrid.filippov_system`) holds expressions, not
+#: text, in its modes. No name of a model can be this key.
+EXPR_KEY = "$expr"
+
+
 def _plain(obj):
-    """A dataclass (a HybridSystem and its parts) as nested dicts, lists and scalars."""
+    """A dataclass (a HybridSystem and its parts) as nested dicts, lists and scalars; an expression
+    as ``{EXPR_KEY: nodes}``."""
+    if isinstance(obj, Expr):
+        return {EXPR_KEY: to_data(obj)}
     if is_dataclass(obj) and not isinstance(obj, type):
         return {f.name: _plain(getattr(obj, f.name)) for f in fields(obj)}
     if isinstance(obj, Mapping):
@@ -245,9 +263,26 @@ def model_data(system: HybridSystem) -> dict:
     return _plain(system)
 
 
+def _unplain(obj):
+    """The inverse of :func:`_plain` for expressions: ``{EXPR_KEY: nodes}`` back to an Expr."""
+    if isinstance(obj, Mapping):
+        if len(obj) == 1 and EXPR_KEY in obj:
+            return from_data(obj[EXPR_KEY])
+        return {k: _unplain(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_unplain(v) for v in obj]
+    return obj
+
+
 def system_from_data(data: Mapping) -> HybridSystem:
-    """The :class:`HybridSystem` of :func:`model_data` (validated again)."""
-    d = dict(data)
+    """The :class:`HybridSystem` of :func:`model_data` (validated again).
+
+    Raises
+    ------
+    ModelError
+        ``data`` is not the data of a model.
+    """
+    d = _unplain(dict(data))
     d["variables"] = [Variable(**v) for v in d["variables"]]
     d["parameters"] = [Parameter(**p) for p in d["parameters"]]
     d["modes"] = [Mode(**m) for m in d["modes"]]
@@ -337,6 +372,7 @@ def run_point(
     options: SolverOptions,
     settings: ContinuationOptions,
     seconds: float | None,
+    deadline: tuple | None = None,
 ) -> dict:
     """One point of a sweep: the frequency response at ``params`` and its figure of merit.
 
@@ -359,6 +395,9 @@ def run_point(
     settings : ContinuationOptions
     seconds : float or None
         Time limit of the point [s] (None: none).
+    deadline : tuple, optional
+        A deadline of the caller's (:func:`hybrid.core.budget.current_deadline`) in force too;
+        by default none: a deadline inherited by a forked worker is not this point's.
 
     Returns
     -------
@@ -377,8 +416,9 @@ def run_point(
         warnings.simplefilter("always")
         try:
             system = _system(data, digest)
-            with time_limit(seconds) if seconds is not None else nullcontext():
-                fr = frequency_response(system, params, p_range, options=options, settings=settings)
+            with restore_deadline(deadline):
+                with time_limit(seconds, "--point-time-limit") if seconds is not None else nullcontext():
+                    fr = frequency_response(system, params, p_range, options=options, settings=settings)
             out = _curve_summary(fr, coordinate)
         except Exception as exc:  # recorded as the point's result: the sweep goes on
             tb = traceback.extract_tb(exc.__traceback__)
@@ -397,16 +437,6 @@ def run_point(
 
 # ----------------------------------------------------------------------------------------------
 # The folder: manifest and point files
-def _write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary file beside ``path``, flush it to disk, rename it to ``path``."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with tmp.open("w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
 def _identity(manifest: Mapping) -> dict:
     """The entries of a manifest that fix the results (a resumed sweep must match them all)."""
     keys = ("layout", "model", "model_hash", "version", "parameter", "coordinate", "p_range")
@@ -435,6 +465,8 @@ class SweepResult:
     lost : list of (tuple, str)
         Points the executor did not return (a worker died, the cluster went away) and why; they
         have no file and are computed by a resumed sweep.
+    stopped : str
+        Why the sweep stopped before its last point (its deadline passed), ``""`` if it did not.
     """
 
     folder: Path
@@ -443,6 +475,7 @@ class SweepResult:
     computed: list = field(default_factory=list)
     reused: list = field(default_factory=list)
     lost: list = field(default_factory=list)
+    stopped: str = ""
 
     @property
     def axes(self) -> list[Axis]:
@@ -472,40 +505,190 @@ class SweepResult:
         return f"SweepResult({m['model']} over {grid} in {str(self.folder)!r}: {counts})"
 
 
+#: Largest manifest read [bytes] (a grid of MAX_POINTS values takes about 3 MB).
+MAX_MANIFEST_BYTES = 32 * 1024 * 1024
+#: Largest point file read [bytes].
+MAX_POINT_BYTES = 64 * 1024 * 1024
+#: The entries of a manifest every reader needs, and their types.
+_MANIFEST_KEYS = {
+    "layout": int,
+    "model": str,
+    "parameter": str,
+    "coordinate": str,
+    "p_range": list,
+    "axes": list,
+    "params": dict,
+    "options": dict,
+    "settings": dict,
+}
+
+
+class _Bad(InputError):
+    """A sweep file that is not what the sweep wrote."""
+
+
+def _read_json(path: Path, limit: int, what: str):
+    """The JSON of a regular file of at most ``limit`` bytes (NaN and infinities refused)."""
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        raise _Bad(f"{str(path)!r} cannot be read: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(st.st_mode):
+        kind = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file"
+        raise _Bad(f"{str(path)!r} is {kind}, not a {what}")
+    if st.st_size > limit:
+        raise _Bad(f"{str(path)!r} has {st.st_size} bytes, more than a {what} may ({limit})")
+
+    def refuse(name):
+        raise InputError(f"{name} is not a number JSON allows")
+
+    try:
+        with open(path, "rb") as fh:
+            return json.loads(fh.read(limit + 1), parse_constant=refuse)
+    except (OSError, ValueError, RecursionError) as exc:  # (JSONDecodeError is a ValueError)
+        raise _Bad(f"{str(path)!r} cannot be read as a {what}: {exc}") from None
+
+
+def _number(v, finite: bool = True) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and (not finite or math.isfinite(v))
+
+
+def _check_manifest(path: Path, m) -> None:
+    """Raise :class:`_Bad` naming the key if ``m`` is not a manifest a sweep wrote; the grid's size
+    is checked before anything is made of it."""
+
+    def bad(key: str, what: str):
+        return _Bad(
+            f"{str(path)!r}: `{key}` {what}: this is not the manifest a sweep wrote; restore it, or start "
+            "the sweep again in another folder"
+        )
+
+    if not isinstance(m, dict):
+        raise bad("(the whole file)", f"is a JSON {type(m).__name__}, not an object")
+    if m.get("layout") not in READABLE_LAYOUTS:
+        raise InputError(
+            f"{str(path)!r}: sweep layout {m.get('layout')!r}, this version reads "
+            + ", ".join(str(v) for v in READABLE_LAYOUTS)
+        )
+    for key, kind in _MANIFEST_KEYS.items():
+        if key not in m:
+            raise bad(key, "is missing")
+        if not isinstance(m[key], kind) or (kind is int and isinstance(m[key], bool)):
+            raise bad(key, f"must be a JSON {'number' if kind is int else kind.__name__}, got {m[key]!r:.60}")
+    lo_hi = m["p_range"]
+    if not (len(lo_hi) == 2 and all(_number(v) for v in lo_hi) and 0 < lo_hi[0] < lo_hi[1]):
+        raise bad("p_range", f"must be two numbers 0 < A < B, got {lo_hi!r:.60}")
+    axes = m["axes"]
+    if not axes:
+        raise bad("axes", "is empty")
+    sizes = []
+    for k, a in enumerate(axes):
+        key = f"axes[{k}]"
+        if not isinstance(a, dict):
+            raise bad(key, f"must be an object, got {a!r:.60}")
+        for sub in ("name", "values", "spacing", "spec"):
+            if sub not in a:
+                raise bad(f"{key}.{sub}", "is missing")
+        if not isinstance(a["name"], str) or not a["name"]:
+            raise bad(f"{key}.name", f"must be a parameter name, got {a['name']!r:.60}")
+        vals = a["values"]
+        if not isinstance(vals, list) or not vals:
+            raise bad(f"{key}.values", "must be a non-empty list")
+        if len(vals) > MAX_POINTS:
+            raise bad(f"{key}.values", f"has {len(vals)} values, more than a sweep has ({MAX_POINTS})")
+        sizes.append(len(vals))
+        if math.prod(sizes) > MAX_POINTS:
+            raise bad("axes", f"make a grid of more than {MAX_POINTS} points")
+        if not all(_number(v) for v in vals) or any(b <= a_ for a_, b in zip(vals, vals[1:], strict=False)):
+            raise bad(f"{key}.values", "must be finite numbers, increasing")
+        if a["spacing"] not in ("linear", "log"):
+            raise bad(f"{key}.spacing", f"must be 'linear' or 'log', got {a['spacing']!r:.60}")
+        if not isinstance(a["spec"], list) or not all(_number(v) for v in a["spec"]):
+            raise bad(f"{key}.spec", "must be a list of numbers")
+    names = [a["name"] for a in axes]
+    if len(set(names)) != len(names):
+        raise bad("axes", f"name a parameter twice: {names}")
+
+
+def _check_point(path: Path, r, index: tuple, axes: list) -> None:
+    """Raise :class:`_Bad` naming the key if ``r`` is not the point file a sweep wrote at ``index``."""
+
+    def bad(key: str, what: str):
+        return _Bad(
+            f"{str(path)!r}: `{key}` {what}: this is not a point file the sweep wrote; remove it and run "
+            "the sweep again with --resume to compute the point again"
+        )
+
+    if not isinstance(r, dict):
+        raise bad("(the whole file)", f"is a JSON {type(r).__name__}, not an object")
+    for key in ("index", "values", "status"):
+        if key not in r:
+            raise bad(key, "is missing")
+    if r["index"] != list(index):
+        raise bad("index", f"is {r['index']!r:.60}, not {list(index)} as its name says")
+    want = {a["name"]: a["values"][i] for a, i in zip(axes, index, strict=True)}
+    if r["values"] != want:
+        raise bad("values", f"are {r['values']!r:.80}, not the grid's {want}")
+    if r["status"] not in STATUSES:
+        raise bad("status", f"is {r['status']!r:.60}, not one of {', '.join(STATUSES)}")
+    for key in ("peak", "peak_at"):
+        v = r.get(key)
+        if v is not None and not _number(v):
+            raise bad(key, f"must be a finite number or null, got {v!r:.60}")
+    if (
+        r["status"] in (PointStatus.BOUNDED, PointStatus.INCOMPLETE)
+        and r.get("peak") is None
+        and r.get("curve")
+    ):
+        raise bad("peak", "is missing where the curve has orbits")
+    for key in ("reason", "message"):
+        if key in r and not isinstance(r[key], str):
+            raise bad(key, f"must be text, got {r[key]!r:.60}")
+    if "curve" in r and not isinstance(r["curve"], dict):
+        raise bad("curve", f"must be an object, got {r['curve']!r:.60}")
+
+
 def load_sweep(folder: str | Path) -> SweepResult:
-    """Read a sweep's folder (the manifest and every point file).
+    """Read a sweep's folder (the manifest and every point file), each file checked.
 
     Raises
     ------
-    ValueError
-        No manifest, or a manifest of another layout.
+    InputError
+        No manifest, a manifest of another layout, or a manifest or point file that is not what a
+        sweep wrote (not JSON, a value that is not a number, NaN, a key missing or of the wrong
+        type, a grid larger than :data:`MAX_POINTS`, a point file whose index or values are not its
+        grid point's, a folder or FIFO in place of a file, a file in the folder named like a point
+        of no grid point): the message names the file and the key. Checked before any work.
     """
     folder = Path(folder)
     path = folder / MANIFEST
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise InputError(
             f"{str(folder)!r} holds no sweep: no {MANIFEST} (run `hybrid sweep ... --out` first)"
         )
-    try:
-        manifest = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"{str(path)!r} cannot be read as a sweep manifest: {exc}") from None
-    if manifest.get("layout") not in READABLE_LAYOUTS:
-        raise InputError(
-            f"{str(path)!r}: sweep layout {manifest.get('layout')!r}, this version reads "
-            + ", ".join(str(v) for v in READABLE_LAYOUTS)
-        )
+    manifest = _read_json(path, MAX_MANIFEST_BYTES, "sweep manifest")
+    _check_manifest(path, manifest)
     res = SweepResult(folder, manifest)
     shape = res.shape
-    for index in product(*(range(n) for n in shape)):
-        p = folder / _point_name(index)
-        if p.is_file():
-            try:
-                r = json.loads(p.read_text())
-            except (OSError, json.JSONDecodeError):
-                continue  # not ours (files are renamed into place whole): computed again
-            if tuple(r.get("index", ())) == index:
-                res.points[index] = r
+    axes = manifest["axes"]
+    try:
+        entries = sorted(os.scandir(folder), key=lambda e: e.name)
+    except OSError as exc:
+        raise InputError(f"{str(folder)!r} cannot be read: {exc.strerror or exc}") from None
+    for e in entries:
+        m = _POINT_NAME.fullmatch(e.name)
+        if m is None:
+            continue
+        index = tuple(int(i) for i in m.group(1).split("-"))
+        p = folder / e.name
+        if len(index) != len(shape) or any(i >= n for i, n in zip(index, shape, strict=False)):
+            raise _Bad(
+                f"{str(p)!r} is named like a point of no grid point of this sweep ({' x '.join(map(str, shape))}): "
+                "remove it"
+            )
+        r = _read_json(p, MAX_POINT_BYTES, "point file")
+        _check_point(p, r, index, axes)
+        res.points[index] = r
     return res
 
 
@@ -546,6 +729,7 @@ def sweep(
     resume: bool = False,
     progress: Progress | None = None,
     on_point: OnPoint | None = None,
+    heartbeat: Callable[[], None] | None = None,
 ) -> SweepResult:
     """Frequency responses over a grid of parameter values, each point written as it finishes.
 
@@ -585,16 +769,30 @@ def sweep(
     on_point : callable, optional
         ``on_point(index, result)`` with every point computed here, as it is written (its grid
         index, a tuple, and the dict of its file), before ``progress`` (:mod:`hybrid.core.callbacks`).
+    heartbeat : callable, optional
+        With an executor: called here about once a second while points are computed (e.g. to
+        check that a cluster still has workers); an exception it raises stops the sweep (the
+        points finished are on disk).
 
     Returns
     -------
     SweepResult
+        Inside a :func:`hybrid.time_limit` whose deadline passes, the sweep stops there: the
+        points finished are kept, those in progress are not written (``stopped`` says so; with
+        an executor, its workers are the caller's to stop).
 
     Raises
     ------
     ValueError
-        Bad input (an unknown parameter or coordinate, a value outside a parameter's domain, a
-        folder holding another sweep, a resumed sweep whose manifest differs), before any run.
+        Bad input (an unknown parameter or coordinate, an axis of the forcing frequency, a value
+        outside a parameter's domain, a folder that is a file or holds another sweep, a resumed
+        sweep whose manifest or files differ from what it wrote), before any run.
+    TypeError
+        ``options``, ``settings`` or ``executor`` of the wrong type.
+    hybrid.core.errors.FolderInUse
+        Another run holds the folder (:class:`hybrid.core.files.FolderLock`).
+    hybrid.core.errors.OutputError
+        A file cannot be written (a full disk, ...): the points finished before are on disk.
 
     Examples
     --------
@@ -608,30 +806,49 @@ def sweep(
     options = SolverOptions() if options is None else options
     if not isinstance(options, SolverOptions) or not isinstance(settings, ContinuationOptions):
         raise InputTypeError("sweep: `options` must be a SolverOptions and `settings` a ContinuationOptions")
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise InputTypeError(
+            f"sweep: `executor` must have a method submit(fn, *args) returning futures (a "
+            f"ProcessPoolExecutor, a distributed.Client), got {type(executor).__name__}"
+        )
     if system.period is None:
         raise ModelError(
             f"sweep: model `{system.name}` declares no forcing `period`: periodic orbits need one"
         )
     if not axes:
         raise InputError("sweep: give at least one axis")
-    if point_time_limit is not None and not (
-        isinstance(point_time_limit, int | float) and math.isfinite(point_time_limit) and point_time_limit > 0
+    if point_time_limit is not None and (
+        isinstance(point_time_limit, bool)
+        or not isinstance(point_time_limit, int | float)
+        or not (math.isfinite(point_time_limit) and point_time_limit > 0)
     ):
         raise InputError(
             f"sweep: `point_time_limit` must be a number of seconds > 0, got {point_time_limit!r}"
         )
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"sweep: {str(folder)!r} exists and is not a folder; choose another folder")
     params = dict(params)
+    forcing = forcing_parameter(system)
+    if any(a.name == forcing for a in axes):
+        raise InputError(
+            f"sweep: `{forcing}` is the forcing frequency each point's curve runs over (its range is "
+            "p_range, CLI --omega-range): it cannot be an axis of the grid"
+        )
     grid = _grid_params(system, params, axes)
     coords = list(plot_hints(system)["displacements"])
     if coordinate is None:
         if not coords:
             raise InputError(f"sweep: model `{system.name}` names no coordinate; give `coordinate`")
         coordinate = coords[0]
-    if coordinate not in system.variable_names:
-        raise InputError(
-            f"sweep: model `{system.name}` has no variable `{coordinate}`; variables: "
-            + ", ".join(system.variable_names)
+    allowed = [v for v in system.variable_names if v not in system.quadratures] + list(system.outputs)
+    if coordinate not in allowed:
+        why = (
+            f"`{coordinate}` is a quadrature (an integral over the run, not an oscillating coordinate)"
+            if coordinate in system.quadratures
+            else f"model `{system.name}` has no variable or output `{coordinate}`"
         )
+        raise InputError(f"sweep: {why}; coordinates: " + ", ".join(allowed))
     if p_range is None:
         ranges = [default_range(system, p) for p in grid.values()]
         p_range = (min(r[0] for r in ranges), max(r[1] for r in ranges))
@@ -663,15 +880,44 @@ def sweep(
             **{v.name: v.unit for v in system.variables if v.name == coordinate and v.unit},
         },
     }
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    with FolderLock(folder, f"hybrid.sweep of `{system.name}`"):
+        return _run(
+            system,
+            grid,
+            axes,
+            folder,
+            manifest,
+            resume,
+            executor,
+            progress,
+            on_point,
+            heartbeat,
+            data,
+            digest,
+            (p_range, coordinate, options, settings, point_time_limit),
+        )
+
+
+#: Seconds between two calls of a sweep's ``heartbeat``.
+HEARTBEAT = 1.0
+
+
+def _run(
+    system, grid, axes, folder, manifest, resume, executor, progress, on_point, heartbeat, data, digest, rest
+):
+    """The sweep of :func:`sweep` once its input is checked, its folder locked."""
     path = folder / MANIFEST
-    if path.exists():
+    if os.path.lexists(path):
         if not resume:
             raise InputError(
                 f"{str(folder)!r} already holds a sweep ({MANIFEST}): resume it (--resume) or choose another folder"
             )
         old = load_sweep(folder).manifest
+        if old.get("layout") != LAYOUT or any(k not in old for k in _identity(manifest)):
+            raise InputError(
+                f"cannot resume the sweep in {str(folder)!r}: it was written by another version of hybrid "
+                f"(layout {old.get('layout')!r}, this one writes {LAYOUT}); start a new sweep in another folder"
+            )
         new = json.loads(to_json(manifest))  # as it would read back
         changed = [k for k, v in _identity(new).items() if _identity(old)[k] != v]
         if changed:
@@ -684,7 +930,7 @@ def sweep(
                 + "; its results would not be comparable: start a new sweep in another folder"
             )
         started = old.get("started")
-    elif any(folder.glob("point-*.json")):
+    elif any(_POINT_NAME.fullmatch(e.name) for e in os.scandir(folder)):
         raise InputError(
             f"{str(folder)!r} holds point files but no {MANIFEST}: their grid and model are unknown; "
             "choose another folder"
@@ -692,7 +938,7 @@ def sweep(
     else:
         started = time.time()
     manifest["started"] = started
-    _write_atomic(path, to_json(manifest) + "\n")
+    write_atomic(path, to_json(manifest) + "\n")
 
     res = load_sweep(folder)
     res.reused = sorted(res.points)
@@ -701,7 +947,7 @@ def sweep(
 
     def finish(index: tuple, result: dict) -> None:
         result = {"index": list(index), "values": {a.name: grid[index][a.name] for a in axes}, **result}
-        _write_atomic(folder / _point_name(index), to_json(result) + "\n")
+        write_atomic(folder / _point_name(index), to_json(result) + "\n")
         res.points[index] = json.loads(to_json(result))
         res.computed.append(index)
         if on_point is not None:
@@ -712,26 +958,59 @@ def sweep(
     if progress is not None:
         progress(len(res.points) / total)
     args = (data, digest)
-    rest = (p_range, coordinate, options, settings, point_time_limit)
     if executor is None:
+        deadline = current_deadline()
         for index in todo:
-            finish(index, run_point(*args, grid[index], *rest))
+            if deadline_passed():
+                res.stopped = _stopped_text(len(todo) - len(res.computed))
+                break
+            result = run_point(*args, grid[index], *rest, deadline=deadline)
+            if deadline_passed() and result["status"] == PointStatus.TIME_LIMIT:
+                res.stopped = _stopped_text(len(todo) - len(res.computed))  # cut by the deadline: not kept
+                break
+            finish(index, result)
         return res
     done: queue.Queue = queue.Queue()
     pending = {}
-    for index in todo:
-        fut = executor.submit(run_point, *args, grid[index], *rest)
-        pending[fut] = index
-        fut.add_done_callback(done.put)
-    while pending:
-        fut = done.get()
-        index = pending.pop(fut, None)
-        if index is None:
-            continue
-        try:
-            result = fut.result()
-        except Exception as exc:  # the executor lost it (a worker died, ...): no file, computed on resume
-            res.lost.append((index, f"{type(exc).__name__}: {exc}"))
-            continue
-        finish(index, result)
+    try:
+        for index in todo:
+            fut = executor.submit(run_point, *args, grid[index], *rest)
+            pending[fut] = index
+            fut.add_done_callback(done.put)
+        beat = time.monotonic()
+        while pending:
+            try:
+                fut = done.get(timeout=0.2)
+            except queue.Empty:
+                fut = None
+            if deadline_passed():
+                res.stopped = _stopped_text(len(pending))
+                return res
+            if heartbeat is not None and time.monotonic() - beat >= HEARTBEAT:
+                beat = time.monotonic()
+                heartbeat()
+            if fut is None:
+                continue
+            index = pending.pop(fut, None)
+            if index is None:
+                continue
+            try:
+                result = fut.result()
+            except Exception as exc:  # the executor lost it (a worker died, ...): no file, computed on resume
+                res.lost.append((index, f"{type(exc).__name__}: {exc}"))
+                continue
+            finish(index, result)
+    finally:  # stopped early (a deadline, an interrupt, an error): the points not started are withdrawn
+        for fut in pending:
+            try:
+                fut.cancel()
+            except Exception:  # (an executor already shut down, a cluster gone: nothing left to withdraw)
+                pass
     return res
+
+
+def _stopped_text(left: int) -> str:
+    return (
+        f"time limit reached ({limit_text()}): {left} points not computed (those in progress dropped); "
+        "--resume computes them"
+    )

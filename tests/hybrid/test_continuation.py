@@ -43,10 +43,14 @@ def test_duffing_folds_located_to_1e8():
     )
     assert br.status == "completed", br.message
     folds = [s for s in br.special if s.kind == "fold"]
-    assert [f.status for f in folds] == ["located", "located"]
+    # the folds of the computed branch are found to 1e-13, but the runs' integration error (IDA,
+    # rtol 1e-8) moves them by up to 3.7e-10: the intervals say so (issue 23), wider than
+    # locate_tol, so the folds are bracketed, and hold the reference
+    assert [f.status for f in folds] == ["bracketed", "bracketed"]
     for s, W in zip(folds, (ref.band[1], ref.band[0]), strict=True):
         assert abs(s.parameter - W) <= 1e-8
         assert s.accuracy <= 1e-8
+        assert s.contains(W), (s, W)
         assert br.points[s.index].params["Omega"] == s.parameter
     # No orbit twice.
     assert len({id(o) for o in br.points}) == len(br.points)
@@ -54,7 +58,12 @@ def test_duffing_folds_located_to_1e8():
 
 
 @pytest.mark.slow
-def test_friction_loss_of_stick_located_to_1e8():
+@pytest.mark.parametrize("integrator", ["exact", "ida"])
+def test_friction_loss_of_stick_located_to_1e8(integrator):
+    """The end of the stick phases (a phase that a transversal breakaway guard ends, its duration
+    linear in the distance): located to 1e-11 by the exact integrator; IDA (rtol 1e-10) brackets it,
+    the phases near it being shorter than its noise, in an interval that holds it (before issue 23
+    IDA reported it located to 1e-8 though its phases there are resolved to about 5 rtol only)."""
     system, params, _ = op.friction_oscillator()
     boundary = op.friction_stick_boundary(params)
     br = continue_orbits(
@@ -62,13 +71,18 @@ def test_friction_loss_of_stick_located_to_1e8():
         params,
         "Omega",
         (0.56, 0.62),
+        options=hybrid.SolverOptions(integrator=integrator, rtol=1e-10, atol=1e-12),
         settings=hybrid.ContinuationOptions(ds=0.02, ds_max=0.05, samples_per_period=64),
     )
     assert br.status == "completed", br.message
     (lost,) = [s for s in br.special if s.kind == "mode-lost"]
-    assert lost.status == "located"
-    assert abs(lost.parameter - boundary) <= 1e-8
-    assert lost.accuracy <= 1e-8
+    assert lost.contains(boundary), (lost, boundary)
+    if integrator == "exact":
+        assert lost.status == "located"
+        assert abs(lost.parameter - boundary) <= lost.accuracy <= 1e-11
+    else:
+        assert lost.status == "bracketed"
+        assert lost.accuracy <= 5e-8
     assert [s.kind for s in br.special] == ["mode-lost"]
 
 
@@ -109,26 +123,33 @@ def test_unlocated_points_are_bracketed():
     # The hardening branch turns back at the upper fold first, then at the lower one.
     for s, fold, turn in zip(folds, (ref.folds[1], ref.folds[0]), ("max", "min"), strict=True):
         lo, hi = s.interval
-        assert s.accuracy == pytest.approx(0.5 * (hi - lo))
-        # The interval's ends are the parameters of two consecutive orbits of the branch: the step
-        # over which it turned back.
-        (i,) = [j for j in (s.index - 1, s.index) if sorted((p[j], p[j + 1])) == [lo, hi]]
-        # A fold's parameter is extremal, so both ends lie on the branch's side of the reference
-        # fold (not around it), up to the runs' integration error (rtol 1e-8).
+        assert s.accuracy == pytest.approx(max(s.parameter - lo, hi - s.parameter))
+        # The step over which it turned back: two consecutive orbits, the point reported at the more
+        # extreme of them (a fold's parameter is extremal, so both lie on the branch's side of it).
+        k = s.index
+        assert s.parameter == p[k]
+        assert p[k] == (max if turn == "max" else min)(p[k - 1 : k + 2])
+        # The interval runs from there past the fold, to the tangents' intersection and a margin: it
+        # holds the reference fold (before issue 23 it was the step, which lies on one side of it:
+        # the upper fold 1.4e-4 outside with a stated accuracy of 4.3e-5). Integration error, rtol
+        # 1e-8, moves the computed fold by about 1e-8.
         W = fold.params["Omega"]
-        if turn == "max":
-            assert hi <= W + 1e-8, (lo, hi, W)
-        else:
-            assert W - 1e-8 <= lo, (lo, hi, W)
-        # ... and the reference fold orbit lies inside that step: its (x(0), v(0), Omega) projects
-        # onto the chord between the two orbits strictly between them, close to the chord.
-        a, b = (np.r_[br.points[k].x0[:2], p[k]] for k in (i, i + 1))
-        assert br.points[i].t0 == br.points[i + 1].t0 == fold.t0 == 0.0
-        star = np.r_[fold.x0[:2], W]
-        frac = (star - a) @ (b - a) / ((b - a) @ (b - a))
-        assert 0.0 < frac < 1.0, (frac, i)
-        off = np.linalg.norm(star - a - frac * (b - a))
-        assert off <= 0.02 * np.linalg.norm(b - a), (off, np.linalg.norm(b - a))
+        assert lo - 1e-8 <= W <= hi + 1e-8, (lo, hi, W)
+        assert (lo if turn == "max" else hi) == s.parameter
+        # not wider than the two steps around the fold
+        assert hi - lo <= np.ptp(p[k - 1 : k + 2]), (lo, hi, p[k - 1 : k + 2])
+        # ... and the reference fold orbit lies inside one of its two steps: its (x(0), v(0), Omega)
+        # projects onto the chord between two orbits strictly between them, close to the chord.
+        inside = []
+        for i in (k - 1, k):
+            a, b = (np.r_[br.points[j].x0[:2], p[j]] for j in (i, i + 1))
+            assert br.points[i].t0 == br.points[i + 1].t0 == fold.t0 == 0.0
+            star = np.r_[fold.x0[:2], W]
+            frac = (star - a) @ (b - a) / ((b - a) @ (b - a))
+            off = np.linalg.norm(star - a - frac * (b - a))
+            if 0.0 < frac < 1.0 and off <= 0.02 * np.linalg.norm(b - a):
+                inside.append(i)
+        assert len(inside) == 1, inside
 
 
 # ----------------------------------------------------------------------------

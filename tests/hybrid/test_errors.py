@@ -3,8 +3,11 @@ class, from hybrid.core.errors, raised where it is documented."""
 
 import ast
 import builtins
+import errno
 import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +92,8 @@ def test_the_built_ins_of_the_classes():
         "ParameterOutOfDomain": {"ValueError", "RuntimeError"},
         "SampleCapReached": set(),
         "WorkerError": {"RuntimeError"},
+        "OutputError": {"OSError"},
+        "FolderInUse": {"ValueError"},
     }
     assert {c.__name__: _builtin_bases(c) for c in CLASSES} == expected
 
@@ -326,7 +331,9 @@ def test_parameter_out_of_domain_when_an_iteration_leaves_the_domain():
 
 
 def test_sample_cap_reached_when_a_run_records_too_many_samples():
-    rec = Recorder(1, ["m"], lambda t, y, m: {}, max_kept=2, max_total=2)
+    rec = Recorder(
+        1, lambda m: np.full(np.shape(m), "m", dtype=object), lambda t, y, m: {}, max_kept=2, max_total=2
+    )
     rec.add(0.0, np.zeros(1), 0)
     rec.add(1.0, np.zeros(1), 0)
     with pytest.raises(
@@ -349,6 +356,38 @@ def test_worker_error_when_a_worker_ends_without_a_result(monkeypatch):
             options=SolverOptions(integrator="exact"),
             workers=2,
         )
+
+
+def test_output_error_when_a_result_cannot_be_written(tmp_path):
+    from hybrid.core.files import write_atomic
+
+    (tmp_path / "r.json").mkdir()  # a folder where the file goes
+    with pytest.raises(
+        hybrid.OutputError, match=r"cannot write '.*r.json': Is a directory \(EISDIR\)"
+    ) as info:
+        write_atomic(tmp_path / "r.json", "{}")
+    assert info.value.errno == errno.EISDIR
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]  # no temporary file left
+
+
+def test_folder_in_use_when_another_process_holds_the_folder(tmp_path):
+    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(
+            hybrid.FolderInUse, match=rf"is in use by another hybrid run \(pid {holder.pid}, "
+        ):
+            hybrid.core.files.FolderLock(tmp_path).acquire()
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+#: A process holding the lock of the folder argv[1] until killed.
+HOLD = (
+    "import sys, time\nfrom hybrid.core.files import FolderLock\n"
+    "FolderLock(sys.argv[1], 'holder').acquire()\nprint('locked', flush=True)\ntime.sleep(60)\n"
+)
 
 
 # ----------------------------------------------------------------------------

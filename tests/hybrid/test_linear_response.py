@@ -56,7 +56,11 @@ def test_the_tutorial_damper_stuck_and_sliding_against_closed_forms():
     m1, m2, k1, k2, F = (q[k] for k in ("m1", "m2", "k1", "k2", "F"))
     w = np.linspace(40.0, 80.0, 801)
     refs = hybrid.plot_hints(tmd)["linear_references"]
-    assert refs == {"linear: all contacts stuck": "stick", "linear: all contacts sliding": "slip+"}
+    # the network's modes are composed: its own mode `motion`, then the one contact's local mode
+    assert refs == {
+        "linear: all contacts stuck": "motion|stick",
+        "linear: all contacts sliding": "motion|slip+",
+    }
     stuck = linear_response(tmd, q, refs["linear: all contacts stuck"], "Omega", w)
     one = F / np.abs(k1 - (m1 + m2) * w**2)  # the two masses as one
     for x in ("x1", "x2"):
@@ -90,10 +94,12 @@ def test_the_six_block_chain_sliding_is_the_six_dof_chain_and_stuck_is_rest():
 def test_bad_requests_say_what_is_wrong():
     tmd = _tmd()
     q = tmd.preset("standard")
-    with pytest.raises(InputError, match="no mode `glide`; modes: stick, slip"):
+    with pytest.raises(InputError, match="mode `glide` has 1 parts; a mode of this model names its own mode"):
         linear_response(tmd, q, "glide", "Omega", [50.0])
-    with pytest.raises(InputError, match="`W` is not a state variable of mode `stick`"):
-        linear_response(tmd, q, "stick", "Omega", [50.0], ["W"])  # a quadrature
+    with pytest.raises(InputError, match="component `H` has no mode `glide`; its modes: stick, slip"):
+        linear_response(tmd, q, "motion|glide", "Omega", [50.0])
+    with pytest.raises(InputError, match=r"`W` is not a state variable of mode `motion\|stick`"):
+        linear_response(tmd, q, "motion|stick", "Omega", [50.0], ["W"])  # a quadrature
     with pytest.raises(InputError, match="declares no forcing period"):
         linear_response(hybrid_models.belt(), hybrid_models.belt().preset("standard"), "stick", "v_b", [1.0])
 

@@ -82,6 +82,10 @@ def test_builtin_model_files_round_trip_through_system_from_dict():
         assert from_file == hybrid_models.BUILTIN[name]()
         if name.endswith("_sign"):  # written with sign(): the entry of the file's mode (issue 12)
             assert from_file.initial_mode == "motion"
+        elif from_file.components:  # network files of many contacts (issue 22): one component each
+            assert from_file.initial_mode == "motion"
+            assert from_file.default_mode == "|".join(["motion"] + ["stick"] * len(from_file.components))
+            assert from_file.period == "2*pi/Omega"
         elif name.startswith("belt"):  # the autonomous models of issue 11: no forcing period
             assert from_file.initial_mode in ("stick", "stick_stick")
             assert from_file.period is None

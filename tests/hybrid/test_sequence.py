@@ -17,7 +17,7 @@ import hybrid
 import hybrid.orbits.newton as newton
 import hybrid_models
 from hybrid import SolverOptions, load_system, periodic_orbit
-from hybrid.integrators.affine import exact_flows
+from hybrid.integrators.flows import exact_flows
 from hybrid.orbits.sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
 from hybrid.orbits.shooter import Shooter
 from hybrid_models.coulomb_exact import den_hartog

@@ -754,3 +754,28 @@ def test_simulate_rejects_bad_system_params_and_mode():
         ValueError, match=r"`mode0` is required: model `plain` declares no initial mode; modes: m"
     ):
         simulate(no_initial, {}, (0.0, 1.0), {"x": 0.0})
+
+
+@pytest.mark.parametrize("x0", [0.1, 0.3, 0.5, 0.7])
+def test_a_switch_on_a_requested_sample_time_is_sampled_after_it(x0):
+    """Found with issue 22: a switch at a time of ``t_eval`` (or within rounding before it) left
+    that sample to the next mode's IDA run, which refused a time that close to its start (IDA flag
+    -60, "tout too close to t0"): x' = -1 stops at x = 0 at t = x0 in 0, 0.1, ..., 1."""
+    s = HybridSystem(
+        name="drop",
+        variables=["x"],
+        parameters=[],
+        modes=[Mode("fall", derivatives={"x": "-1"}), Mode("rest", derivatives={"x": "0"})],
+        transitions=[Transition("fall", "rest", "x", -1, "stop", {"x": "0"})],
+        initial_mode="fall",
+    )
+    grid = np.linspace(0.0, 1.0, 11)
+    for options in (
+        SolverOptions(rtol=1e-10, atol=1e-12),
+        SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"),
+    ):
+        tr = simulate(s, {}, (0.0, 1.0), {"x": x0}, t_eval=grid, options=options)
+        assert tr.status == Status.COMPLETED
+        assert np.array_equal(tr.t, grid)
+        assert tr.events[0].t == pytest.approx(x0, abs=1e-15)
+        assert np.allclose(tr["x"], np.maximum(x0 - grid, 0.0), rtol=0, atol=1e-12)

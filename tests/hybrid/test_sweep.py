@@ -426,9 +426,9 @@ def test_cli_bad_input_before_any_run(tmp_path, capsys):
         (["--param-log", "c", "0", "1", "5"], r"a log axis needs 0 < START < STOP"),
         (["--param-log", "c", "0.1", "1", "2.5"], r"NUM '2.5' is not an integer"),
         (["--param", "zeta", "0", "1", "0.5"], r"no parameter `zeta`"),
-        (["--param", "Omega", "-1", "1", "0.5"], r"parameter `Omega`.* must be > 0"),
+        (["--param", "Omega", "0.5", "1", "0.5"], r"`Omega` is the forcing frequency .* cannot be an axis"),
         (["--param", "c", "0", "1", "0.5", "--param", "c", "0", "1", "0.5"], "appears on two axes"),
-        (["--param", "c", "0", "1", "0.5", "--coordinate", "y"], "no variable `y`"),
+        (["--param", "c", "0", "1", "0.5", "--coordinate", "y"], "no variable or output `y`"),
     ]
     for extra, match in cases:
         assert main(base + extra) == 2

@@ -12,7 +12,7 @@ import pytest
 from problems import logistic, nonlinear_dae, riccati
 
 import hybrid_models
-from hybrid import HybridSystem, Mode, ModelError, Parameter, Transition, Variable
+from hybrid import Component, HybridSystem, Mode, ModelError, Parameter, Transition, Variable
 from hybrid.model.compiled import CompiledSystem, lead_sign
 
 
@@ -484,3 +484,34 @@ def test_variable_descriptions_are_kept():
     s = _toy(variables=[Variable("x", "m", "position"), "v", "W"])
     assert s.variables[0] == Variable("x", "m", "position")
     assert s.variables[1] == Variable("v")
+
+
+def test_a_composed_mode_with_many_halting_parts_is_described():
+    """Found with issue 22: HybridSystem.mode() of a mode whose many components' local modes
+    halt joined their messages past the limit of Mode.halt and raised (simulate's check of
+    mode0 did so); the joined text is now cut, saying how many parts halt."""
+    n = 30
+    comps = [
+        Component(
+            f"c{i}",
+            (
+                Mode("h", algebraic={f"s{i}": f"s{i}"}, halt="x" * 100),
+                Mode("ok", algebraic={f"s{i}": f"s{i} - 1"}),
+            ),
+        )
+        for i in range(n)
+    ]
+    s = HybridSystem(
+        name="halts",
+        variables=["x"] + [f"s{i}" for i in range(n)],
+        parameters=[],
+        modes=[Mode("own", derivatives={"x": "1"})],
+        transitions=[],
+        components=comps,
+        initial_mode="own",
+    )
+    halt = s.mode(s.default_mode).halt
+    assert len(halt) == 2000
+    assert halt.startswith("x" * 100 + "; " + "x" * 100)
+    assert halt.endswith(" ... (30 parts halt)")
+    assert s.mode("own|" + "|".join(["ok"] * n)).halt == ""

@@ -21,7 +21,7 @@ import pytest
 import hybrid
 import hybrid_models
 from hybrid import SolverOptions, continue_orbits, periodic_orbit
-from hybrid.integrators.affine import exact_flows
+from hybrid.integrators.flows import exact_flows
 from hybrid.orbits.orbit import balance_scales
 from hybrid.orbits.shooter import Shooter
 

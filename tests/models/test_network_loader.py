@@ -4,6 +4,7 @@ structure; a fuzz of the network reader (only clean errors or valid models)."""
 from __future__ import annotations
 
 import copy
+import re
 import time
 import tomllib
 from collections import Counter
@@ -27,6 +28,9 @@ NETWORKS = [
     "absorber_offset",
     "isolator_base",
     "friction_contact",
+    "bk_chain",
+    "iwan",
+    "bladed_disk",
 ]
 BASE = tomllib.loads((MODEL_DIR / "absorber_network.toml").read_text())
 
@@ -72,34 +76,50 @@ def _edit(**tables) -> dict:
 def test_every_shipped_network_loads_and_describes_itself(name):
     system = load_system(MODEL_DIR / f"{name}.toml")
     data = tomllib.loads((MODEL_DIR / f"{name}.toml").read_text())
-    n = len(read_network(data).friction)
-    assert len(system.modes) == 3**n
-    assert len(system.transitions) == 3**n * 2 * n * 2 // 3  # stick: 2 ways out, slip: 1
-    assert system.initial_mode == ("stick" if n == 1 else "_".join(["stick"] * n))
+    friction = read_network(data).friction
+    # one own mode, one component per friction element (3 local modes, 4 transitions each)
+    assert system.mode_names == ("motion",)
+    assert not system.transitions
+    assert [c.name for c in system.components] == [e.name for e in friction]
+    for c in system.components:
+        assert c.mode_names == ("stick", "slip+", "slip-")
+        assert [t.name for t in c.transitions] == ["breakaway+", "breakaway-", "stop+", "stop-"]
+    assert system.default_mode == "|".join(["motion"] + ["stick"] * len(friction))
     text = describe(data)
     assert f"network `{system.name}`" in text
     assert system.energy == {"input": "W", "dissipated": "D", "mechanical": "E"}
 
 
-def test_two_friction_elements_give_nine_modes_and_their_switches():
+def test_two_friction_elements_are_two_components_with_their_switches():
     data = tomllib.loads((MODEL_DIR / "absorber_two_friction.toml").read_text())
-    mdl = build(data)
-    assert sorted(mdl["modes"]) == sorted(
-        f"{a}_{b}" for a in ("stick", "slip+", "slip-") for b in ("stick", "slip+", "slip-")
-    )
-    by_name = {(t["source"], t["name"]): t for t in mdl["transitions"]}
+    system = build(data)
+    H, G = system.components
+    by_name = {(c.name, t.source, t.name): t for c in (H, G) for t in c.transitions}
     # the contact G of m1 to ground: its stop glues m1 to the ground (velocity reset to 0)
-    stop = by_name[("slip+_slip-", "G:stop-")]
-    assert stop["target"] == "slip+_stick"
-    assert stop["reset"] == {"v1": "0"}
-    assert stop["direction"] == 1
-    brk = by_name[("stick_stick", "H:breakaway+")]
-    assert brk["target"] == "slip+_stick"
-    assert brk["guard"] == "f_H - R"
-    assert brk["direction"] == 1
-    # with m1 stuck to the ground, the stuck sequential element carries the force of its node balance
-    assert mdl["modes"]["stick_stick"]["derivatives"]["v1"] == "0"
-    assert mdl["modes"]["stick_stick"]["definitions"]["f_H"] == "-(c2*(x1 - u) + c3*(x2 - u))"
+    stop = by_name[("G", "slip-", "stop-")]
+    assert stop.target == "stick"
+    assert stop.reset == {"v1": "0"}
+    assert stop.direction == 1
+    assert stop.guard == "w_G"
+    brk = by_name[("H", "stick", "breakaway+")]
+    assert brk.target == "slip+"
+    assert brk.guard == "f_H - R"
+    assert brk.direction == 1
+    # stuck to the ground, G's force keeps m1's acceleration at 0: the momentum balance of m1 is its
+    # equation; the sequential element's force is its node's balance, and the node moves with m2
+    stick_G, stick_H = G.modes[0], H.modes[0]
+    assert stick_G.algebraic == {"f_G": "c1*(-x1) + c2*(u - x1) - f_G + force"}
+    assert system.equations["v1"] == "(c1*(-x1) + c2*(u - x1) - f_G + force)/m1"
+    assert stick_H.algebraic == {"vel_u": "vel_u - v2", "f_H": "c2*(x1 - u) + c3*(x2 - u) + f_H"}
+    assert stick_H.derivatives == {"u": "vel_u"}
+    # sliding, the node is the slave of its balance, its velocity of the balance's derivative
+    slip_H = H.modes[1]
+    assert slip_H.algebraic == {
+        "f_H": "f_H - R",
+        "u": "c2*(x1 - u) + c3*(x2 - u) + f_H",
+        "vel_u": "c2*(v1 - vel_u) + c3*(v2 - vel_u)",
+    }
+    assert system.mode("motion|slip+|stick").algebraic.keys() == {"f_H", "u", "vel_u", "f_G"}
 
 
 def test_masses_glued_by_a_stop_share_their_momentum():
@@ -110,15 +130,15 @@ def test_masses_glued_by_a_stop_share_their_momentum():
         "springs": {"s": {"between": ["ground", "a"], "stiffness": "k"}},
         "friction": {"f": {"between": ["a", "b"], "sliding": "R"}},
     }
-    mdl = build(data)
-    stop = next(t for t in mdl["transitions"] if t["source"] == "slip+")
-    assert stop["reset"] == {"v_a": "(m1*v_a + m2*v_b)/(m1 + m2)", "v_b": "(m1*v_a + m2*v_b)/(m1 + m2)"}
-    stick = mdl["modes"]["stick"]
-    # glued: one acceleration for both; the element's force on a from the free body of a,
-    # m1*acc = -k*a + f, i.e. f = k*a*m2/(m1 + m2) (= -m2*acc, the free body of b)
-    assert stick["derivatives"]["v_a"] == stick["derivatives"]["v_b"] == "(k*(-a))/(m1 + m2)"
-    assert stick["definitions"]["f_f"] == "m1*((k*(-a))/(m1 + m2)) - (k*(-a))"
-    assert system_from_dict(data).mode_names == tuple(mdl["modes"])  # the loader takes what it built
+    system = build(data)
+    (c,) = system.components
+    stop = next(t for t in c.transitions if t.source == "slip+")
+    assert stop.reset == {"v_a": "(m1*v_a + m2*v_b)/(m1 + m2)", "v_b": "(m1*v_a + m2*v_b)/(m1 + m2)"}
+    # glued: the element's force keeps the two accelerations equal (f on a, -f on b)
+    assert c.modes[0].algebraic == {"f_f": "(-f_f)/m2 - (k*(-a) + f_f)/m1"}
+    assert system.equations["v_a"] == "(k*(-a) + f_f)/m1"
+    assert system.equations["v_b"] == "(-f_f)/m2"
+    assert system_from_dict(data) == system  # the loader takes what it built
 
 
 # ----------------------------------------------------------------------------
@@ -276,12 +296,34 @@ def test_a_loop_of_massless_nodes_joined_only_by_friction_is_refused(tmp_path):
         load_system(_write(tmp_path, data))
 
 
-def test_too_many_friction_elements_are_refused(tmp_path):
-    masses = {f"y{k}": {"mass": "m1"} for k in range(7)}
-    friction = {f"f{k}": {"between": ["ground", f"y{k}"], "sliding": "R"} for k in range(7)}
-    data = _edit(masses=masses, nodes=None, springs=None, forces=None, friction=friction)
-    with pytest.raises(ModelError, match=r"\[friction\]: 7 friction elements give 3\*\*7 modes; at most 6"):
-        load_system(_write(tmp_path, data))
+def _blocks(count: int, masses_per_cell: int = 1) -> dict:
+    """A chain of `count` cells of blocks on friction contacts (a repeated cell)."""
+    cell = {"count": count}
+    cell["masses"] = {f"y{k}": {"mass": "m1"} for k in range(masses_per_cell)}
+    cell["friction"] = {
+        f"f{k}": {"between": ["ground", f"y{k}"], "sliding": "R"} for k in range(masses_per_cell)
+    }
+    return _edit(masses=None, nodes=None, springs=None, friction=None, forces=None, cells={"block": cell})
+
+
+@pytest.mark.parametrize(
+    ("count", "per_cell", "message"),
+    [
+        (3001, 1, r"\[friction\]: 3001 friction elements; at most 3000 are allowed \(each is a component"),
+        (3001, 2, r"6002 masses and nodes; at most 6000 are allowed"),
+        (5001, 1, r"\[cells\.block\] `count` = 5001: the number of copies must be an integer from 1 to 5000"),
+    ],
+)
+def test_networks_beyond_the_limits_of_size_are_refused_naming_the_limit(count, per_cell, message):
+    with pytest.raises(ModelError, match=message):
+        system_from_dict(_blocks(count, per_cell))
+
+
+def test_a_network_of_a_thousand_contacts_is_composed_not_enumerated():
+    system = system_from_dict(_blocks(1000))
+    assert len(system.components) == 1000
+    assert system.mode_names == ("motion",)
+    assert len(system.variables) == 3002  # y0_i, v_y0_i, f_f0_i; W, D
 
 
 def test_an_unknown_model_format_is_refused(tmp_path):
@@ -442,7 +484,7 @@ def test_fuzz_network_reader_gives_a_model_or_a_clean_error(data):
         assert "Traceback" not in str(exc)
         OUTCOMES["clean error"] += 1
     else:
-        assert system.mode_names == tuple(build(data)["modes"])  # the model the network describes
+        assert system == build(data)  # the model the network describes
         OUTCOMES["valid model"] += 1
     assert time.perf_counter() - start < 5.0
 
@@ -501,7 +543,7 @@ def test_fuzz_network_files_as_text_give_a_model_or_a_clean_error(text):
             assert str(exc).startswith(("spliced.toml: ", "model file ")), str(exc)
             OUTCOMES["clean error (file)"] += 1
         else:
-            assert system.mode_names == tuple(build(tomllib.loads(text))["modes"])  # what the file describes
+            assert system == build(tomllib.loads(text))  # what the file describes
             OUTCOMES["valid model (file)"] += 1
         assert time.perf_counter() - start < 5.0
 
@@ -563,12 +605,20 @@ def test_elements_have_a_namespace_of_their_own(tmp_path):
     a = load_system(_write(tmp_path, data, "a.toml"))
     b = load_system(_write(tmp_path, renamed, "b.toml"))
     assert a.mode_names == b.mode_names
-    assert a.variable_names == b.variable_names
     fa, fb = next(iter(data["friction"])), next(iter(renamed["friction"]))
+
+    def ren(text) -> str:  # a's names of the friction element's force and relative velocity as b's
+        return re.sub(rf"\b([fw])_{fa}\b", rf"\1_{fb}", str(text))
+
+    assert [ren(v) for v in a.variable_names] == list(b.variable_names)
     for m in a.modes:
-        assert dict(m.derivatives) == dict(b.modes[a.mode_names.index(m.name)].derivatives)
-    assert f"f_{fb}" in b.outputs
-    assert f"f_{fa}" in a.outputs
+        mb = b.modes[a.mode_names.index(m.name)]
+        assert {ren(k): ren(v) for k, v in m.derivatives.items()} == {
+            k: str(v) for k, v in mb.derivatives.items()
+        }
+    assert [c.name for c in b.components] == [fb]  # the friction element's component, named as it
+    assert f"f_{fb}" in b.variable_names and f"w_{fb}" in b.outputs
+    assert f"f_{fa}" in a.variable_names and f"w_{fa}" in a.outputs
     # still one name per element, and masses, nodes and forces stay apart from parameters
     twice = copy.deepcopy(renamed)
     twice["dampers"] = {next(iter(renamed["springs"])): {"between": ["ground", "x1"], "coefficient": "c1"}}
@@ -587,7 +637,8 @@ def test_a_node_is_drawn_between_the_points_it_joins(tmp_path):
     (breadth-first from the ground, both masses being the ground's neighbours)."""
     import tomllib as _toml
 
-    from hybrid_models.network import _layout, draw
+    from hybrid_models.network import draw
+    from hybrid_models.network_draw import _layout
 
     data = copy.deepcopy(BASE)
     data["springs"] = {

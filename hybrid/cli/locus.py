@@ -1,0 +1,293 @@
+"""``hybrid locus MODEL --param NAME --range A B --param2 NAME2 --range2 C D --point N``: special
+points followed in two parameters (:func:`hybrid.continue_locus`).
+
+1. The one-parameter branch in ``--param`` over ``--range``: for a forced model the periodic orbits
+   from ``--x0``/``--mode0`` at ``A`` (:func:`hybrid.continue_orbits`); for an autonomous one the
+   equilibria of every mode and the periodic orbit at the preset's value continued both ways (as
+   ``hybrid cont``). Its special points are numbered in the order printed (``--list`` prints them
+   and stops).
+2. The loci of the points ``--point N`` (repeatable) or of every point of ``--kind K``, followed in
+   ``--param2`` over ``--range2``.
+
+Writes ``locus.csv`` (one row per point of every locus), ``locus_branch.csv`` (the branch),
+``locus.json`` (the special points of the branch, each locus's end, status and wall time) and
+``locus.png`` (the branch above, the parameter plane below).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branch, orbit_branch
+from ..continuation.forced import continue_orbits
+from ..continuation.locus import LOCUS_KINDS, continue_locus
+from ..core.budget import time_limit
+from ..core.options import ContinuationOptions, SolverOptions
+from ..core.progress import ProgressBar
+from ..engine.io import to_json, write_rows_csv
+from ..orbits.autonomous import autonomous_orbit
+from .common import (
+    OUT_HELP,
+    UsageError,
+    add_budget,
+    add_guess_args,
+    add_model_args,
+    add_tolerances,
+    announce,
+    budget_options,
+    check_integrator,
+    guess,
+    info,
+    model,
+    output_dir,
+    parameters,
+    positive_float,
+    positive_int,
+    results,
+)
+
+#: The files ``hybrid locus`` writes in its folder.
+FILES = ("locus.csv", "locus_branch.csv", "locus.png", "locus.json")
+
+__all__ = ["register", "run"]
+
+#: Grid of the equilibrium branches of an autonomous model (points over the range).
+EQUILIBRIUM_POINTS = 41
+
+
+def register(sub) -> None:
+    """Add ``locus`` to the subparsers of ``hybrid``."""
+    p = sub.add_parser(
+        "locus", help="special points (folds, period doublings, grazings, ...) followed in two parameters"
+    )
+    add_model_args(p, omega=False)
+    p.add_argument("--param", required=True, metavar="NAME", help="the branch's parameter")
+    p.add_argument(
+        "--range", nargs=2, type=float, required=True, metavar=("A", "B"), help="the branch's range"
+    )
+    p.add_argument("--param2", metavar="NAME", help="the second parameter")
+    p.add_argument("--range2", nargs=2, type=float, metavar=("C", "D"), help="its range")
+    p.add_argument(
+        "--point", type=int, action="append", metavar="N", help="special point N of the branch (repeatable)"
+    )
+    p.add_argument("--kind", action="append", metavar="K", help="every special point of kind K (repeatable)")
+    p.add_argument("--list", action="store_true", help="print the branch's special points and stop")
+    p.add_argument(
+        "--step",
+        type=positive_float,
+        default=0.02,
+        help="first step along a locus, in the plane scaled by the ranges (default 0.02)",
+    )
+    p.add_argument(
+        "--max-points", type=positive_int, default=200, help="points per half of a locus (default 200)"
+    )
+    add_guess_args(p)
+    add_tolerances(p)
+    p.add_argument(
+        "--coordinate", default=None, metavar="NAME", help="variable whose amplitude the branch shows"
+    )
+    p.add_argument("--out", default=None, help=OUT_HELP)
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+    p.add_argument(
+        "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr"
+    )
+    add_budget(p)
+    p.set_defaults(handler=run)
+
+
+def _branches(system, params, args, options, x0, mode0) -> list:
+    """The one-parameter branches whose special points are offered (see the module docstring)."""
+    lo, hi = args.range
+    if system.period is not None:
+        return [continue_orbits(system, params, args.param, (lo, hi), x0=x0, mode0=mode0, options=options)]
+    out = []
+    for mode in (m.name for m in system.modes):
+        try:
+            eb = equilibrium_branch(
+                system, params, mode, args.param, np.linspace(min(lo, hi), max(lo, hi), EQUILIBRIUM_POINTS)
+            )
+        except (ValueError, RuntimeError):
+            continue
+        if any(e.converged and e.admissible for e in eb.points):
+            out.append(eb)
+    orbit = autonomous_orbit(system, params, x0, mode0, options=options)
+    if orbit.converged and min(lo, hi) <= params[args.param] <= max(lo, hi):
+        span = abs(hi - lo)
+        st = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(span, 1.0), ds_max=0.05 * max(span, 1.0))
+        for direction in (1, -1):
+            out.append(
+                orbit_branch(
+                    orbit,
+                    args.param,
+                    (min(lo, hi), max(lo, hi)),
+                    direction=direction,
+                    options=options,
+                    settings=st,
+                )
+            )
+    return out
+
+
+def run(args) -> int:
+    """Handler of ``hybrid locus``."""
+    system = model(args.model)
+    for name in (args.param, args.param2):
+        if name is not None and name not in system.parameter_names:
+            raise UsageError(
+                f"model `{system.name}` has no parameter `{name}`; parameters: {', '.join(system.parameter_names)}"
+            )
+    lo, hi = args.range
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo != hi):
+        raise UsageError(f"--range must be two different finite numbers, got {args.range}")
+    if not args.list:
+        if args.param2 is None or args.range2 is None:
+            raise UsageError(
+                "give the second parameter and its range (--param2 NAME --range2 C D), or --list"
+            )
+        if args.param2 == args.param:
+            raise UsageError("--param2 must differ from --param")
+        if not (args.point or args.kind):
+            raise UsageError("give the special points to follow (--point N or --kind K; --list shows them)")
+    preset, params = parameters(system, args)
+    x0, mode0 = guess(system, args)
+    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    check_integrator(system, params, options)
+    out = output_dir(system, args)
+    announce(system, preset, params)
+    bar = ProgressBar(f"locus {system.name}", enabled=args.progress)
+    t0 = time.perf_counter()
+    with time_limit(args.max_time):
+        branches = _branches(system, params, args, options, x0, mode0)
+        points = [(b, j) for b in branches for j in range(len(b.special))]
+        listing = [
+            f"  [{n}] {b.special[j].kind} at {b.parameter} = {b.special[j].parameter:.10g} ({b.special[j].status}) on a branch of {b.kind}"
+            for n, (b, j) in enumerate(points)
+        ]
+        if args.list:
+            print(
+                "\n".join(
+                    [f"{system.name}: special points of the branch in {args.param}"]
+                    + (listing or ["  (none)"])
+                )
+            )
+            return 0
+        chosen = list(args.point or [])
+        for n in chosen:
+            if not 0 <= n < len(points):
+                raise UsageError(
+                    f"--point {n}: the branch has {len(points)} special points (0 to {len(points) - 1})"
+                )
+        chosen += [
+            n
+            for n, (b, j) in enumerate(points)
+            if args.kind and b.special[j].kind in args.kind and n not in chosen
+        ]
+        bad = [
+            n
+            for n in chosen
+            if points[n][0].special[points[n][1]].kind not in LOCUS_KINDS.get(points[n][0].kind, ())
+        ]
+        if bad:
+            raise UsageError(
+                f"special point(s) {', '.join(map(str, bad))} are not of a kind followed: "
+                + "; ".join(f"{k}: {', '.join(v)}" for k, v in LOCUS_KINDS.items())
+                + "\n"
+                + "\n".join(listing)
+            )
+        if not chosen:
+            raise UsageError(
+                "no special point of the kinds asked for on the branch:\n"
+                + "\n".join(listing or ["  (none)"])
+            )
+        loci = []
+        for m, n in enumerate(chosen):
+            b, j = points[n]
+            done = m / len(chosen)
+            lc = continue_locus(
+                b,
+                j,
+                args.param2,
+                tuple(args.range2),
+                step=args.step,
+                max_points=args.max_points,
+                options=options,
+                settings=ContinuationOptions() if b.kind == "forced-orbits" else None,
+                progress=lambda f, done=done: bar(min(1.0, done + f / len(chosen))),
+            )
+            loci.append(lc)
+            info(
+                f"locus of point {n} ({lc.kind}): {len(lc.points)} points in {lc.wall_time:.1f} s; {lc.message}"
+            )
+    bar(1.0)
+    wall = time.perf_counter() - t0
+    with results(out, FILES) as fs:  # the folder locked, the files renamed into place
+        rows = [
+            {"locus": k, "point": n, **r}
+            for k, (n, lc) in enumerate(zip(chosen, loci, strict=True))
+            for r in lc.to_rows()
+        ]
+        write_rows_csv(rows, fs.path("locus.csv"))
+        written = ["locus.csv"]
+        brows = [{"branch": k, **r} for k, b in enumerate(branches) for r in b.to_rows()]
+        write_rows_csv(brows, fs.path("locus_branch.csv"))
+        written.append("locus_branch.csv")
+        if not args.no_plot:
+            from ..plot.locus import plot_locus
+
+            plot_locus(loci, [b for b in branches if b.points], fs.path("locus.png"), args.coordinate)
+            written.append("locus.png")
+        summary = {
+            "model": system.name,
+            "preset": preset,
+            "parameters": params,
+            "parameter": args.param,
+            "range": [lo, hi],
+            "parameter2": args.param2,
+            "range2": list(args.range2),
+            "special": [
+                {
+                    "point": n,
+                    "kind": b.special[j].kind,
+                    "value": b.special[j].parameter,
+                    "status": b.special[j].status,
+                    "interval": list(b.special[j].interval),
+                    "branch_kind": b.kind,
+                }
+                for n, (b, j) in enumerate(points)
+            ],
+            "loci": [
+                {
+                    "point": n,
+                    "kind": lc.kind,
+                    "points": len(lc.points),
+                    "status": lc.status,
+                    "message": lc.message,
+                    "wall_time_s": lc.wall_time,
+                    "located": sum(1 for q in lc.points if q.status == "located"),
+                }
+                for n, lc in zip(chosen, loci, strict=True)
+            ],
+            "wall_time_s": wall,
+            "files": [str(fs.final(n)) for n in [*written, "locus.json"]],
+        }
+        fs.path("locus.json").write_text(to_json(summary) + "\n")
+    if args.json:
+        print(to_json(summary))
+    else:
+        lines = [f"{system.name}: loci in ({args.param}, {args.param2})"] + listing
+        for lc in summary["loci"]:
+            lines.append(
+                f"  locus of point {lc['point']} ({lc['kind']}): {lc['points']} points ({lc['located']} located), "
+                f"{lc['wall_time_s']:.1f} s; {lc['message']}"
+            )
+        print("\n".join(lines))
+    for n in [*written, "locus.json"]:
+        info(f"wrote {out / n}")
+    info(f"loci in {wall:.1f} s")
+    return 0 if all(lc.status == "completed" for lc in loci) else 1

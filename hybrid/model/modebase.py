@@ -1,0 +1,218 @@
+"""What a compiled mode computes from its generated functions: :class:`ModeMethods`.
+
+Shared by :class:`hybrid.model.compiled.CompiledMode` (a mode compiled on its own) and
+:class:`hybrid.model.composed.ComposedMode` (a mode of a system with components, a view of
+functions compiled once for all its modes). Both provide the attributes these methods read:
+``n``, ``names``, ``name``, ``diff_idx``, ``alg_idx``, ``f_expr``, ``g_expr``, ``g_t``,
+``jac_base``, ``_jac_fn``, ``_jac_at``, ``_res_fn``, ``_f_pos``, ``_gzz_inv``, ``_ix_ad``,
+``_ix_aa``, ``guards``, ``_guards_fn``, ``_outputs_vec``, ``_runtime``, ``_ns``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import AlgebraicSolveError
+from .taylor import taylor_eval, taylor_eval_many
+
+__all__ = ["ModeMethods"]
+
+
+class ModeMethods:
+    """Residual, Jacobian, slave variables, consistent derivatives, guards and Taylor series of a
+    compiled mode (plain arrays in and out)."""
+
+    def outputs_at(self, t: np.ndarray, Y: np.ndarray) -> list[np.ndarray] | None:
+        """The system's outputs at samples ``(t[i], Y[i])`` of this mode, one array per output (in
+        the order of ``system.outputs``), evaluated elementwise at once; None where a value is not
+        finite (the caller evaluates sample by sample, where the scalar functions say why)."""
+        if self._outputs_vec is None:
+            return []
+        with np.errstate(all="ignore"):
+            vals = self._outputs_vec([t, *Y.T])
+        out = [np.broadcast_to(np.asarray(v, dtype=float), t.shape) for v in vals]
+        return out if all(np.all(np.isfinite(v)) for v in out) else None
+
+    def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
+        env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+        for p in self._runtime:
+            env[p] = self._ns[f"_p_{p}"]
+        return env
+
+    # ------------------------------------------------------------------
+    # Residual and Jacobian (backend-independent: plain arrays in and out)
+    def residual(self, t: float, y: np.ndarray, yp: np.ndarray, out: np.ndarray) -> None:
+        """Fill ``out`` with the DAE residual ``F(t, y, y')``."""
+        out[: self.n] = self._res_fn([t, *y[: self.n].tolist(), *yp[: self.n].tolist()])
+
+    def jacobian(self, t: float, y: np.ndarray, cj: float, out: np.ndarray) -> None:
+        """Fill ``out`` with ``dF/dy + cj dF/dy'``."""
+        out[:, :] = self.jac_base
+        if self._jac_fn is not None:
+            out[self._jac_at] = self._jac_fn([t, *y.tolist()])
+        d = self.diff_idx
+        out[d, d] += cj
+
+    def dFdy(self, t: float, y: np.ndarray) -> np.ndarray:
+        """``dF/dy`` (rows: -df/dy for differential, dg/dy for slave variables)."""
+        out = np.empty((self.n, self.n))
+        self.jacobian(t, y, 0.0, out)
+        return out
+
+    def projection(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Derivatives of the projection onto the mode's constraint manifold.
+
+        The projection keeps the differential variables and replaces the slave variables ``z`` by
+        the solution of ``g(t, y_d, z) = 0``.
+
+        Returns
+        -------
+        P_y : ndarray, shape (n, n)
+            ``d(Pi)/dy``: identity on differential rows, ``-g_z^-1 g_d`` on slave rows.
+        P_t : ndarray, shape (n,)
+            ``d(Pi)/dt``: ``-g_z^-1 g_t`` on slave rows.
+        """
+        n = self.n
+        P_y = np.eye(n)
+        P_t = np.zeros(n)
+        a, d = self.alg_idx, self.diff_idx
+        if a.size:
+            J = self.dFdy(t, y)
+            Gz = J[np.ix_(a, a)]
+            P_y[a, :] = 0.0
+            P_y[np.ix_(a, d)] = -np.linalg.solve(Gz, J[np.ix_(a, d)])
+            v = [t, *np.asarray(y, dtype=float).tolist()]
+            gt = np.array([fn(v) for _, fn in self.g_t])
+            P_t[a] = -np.linalg.solve(Gz, gt)
+        return P_y, P_t
+
+    # ------------------------------------------------------------------
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Derivatives of the differential variables (zeros at slave positions)."""
+        y = np.asarray(y, dtype=float)
+        out = np.zeros(self.n)
+        F = self._res_fn([t, *y.tolist(), *([0.0] * self.n)])
+        p = self._f_pos
+        out[p] = np.negative(np.take(F, p))
+        return out
+
+    def solve_algebraic(
+        self, t: float, y: np.ndarray, *, tol: float = 1e-14, maxiter: int = 50
+    ) -> np.ndarray:
+        """Return ``y`` with the slave variables solved by Newton's method (exact Jacobian)."""
+        y = np.array(y, dtype=float)
+        if self.alg_idx.size == 0:
+            return y
+        a = self.alg_idx
+        res = np.zeros(self.n)
+        zero = np.zeros(self.n)
+        for _ in range(maxiter):
+            self.residual(t, y, zero, res)
+            r = res[a]
+            try:
+                if self._gzz_inv is not None:  # constant g_z: no Jacobian to evaluate or factor
+                    step = self._gzz_inv @ r
+                else:
+                    step = np.linalg.solve(self.dFdy(t, y)[np.ix_(a, a)], r)
+            except np.linalg.LinAlgError:
+                raise AlgebraicSolveError(
+                    f"mode `{self.name}`: the algebraic equations are singular in the slave variables at t={t!r}"
+                ) from None
+            y[a] -= step
+            scale = 1.0 + np.abs(y[a])
+            if np.all(np.abs(step) <= tol * scale):
+                self.residual(t, y, zero, res)
+                if np.all(np.isfinite(res[a])):
+                    return y
+        raise AlgebraicSolveError(
+            f"mode `{self.name}`: Newton's method did not solve the algebraic equations at t={t!r} "
+            f"(residual {np.max(np.abs(res[a])):.3g})"
+        )
+
+    def derivatives(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Consistent ``y'`` at a point that satisfies the algebraic equations.
+
+        Differential rows from the vector field; slave rows from the
+        differentiated constraint ``g_z z' = -(g_x x' + g_t)``.
+        """
+        yp = self.rhs(t, y)
+        if self.alg_idx.size:
+            a, d = self.alg_idx, self.diff_idx
+            J = self.dFdy(t, y)
+            v = [t, *np.asarray(y, dtype=float).tolist()]
+            gt = np.array([fn(v) for _, fn in self.g_t])
+            rhs = -(J[self._ix_ad] @ yp[d] + gt)
+            gzz = J[self._ix_aa]
+            yp[a] = rhs / gzz[0, 0] if a.size == 1 else np.linalg.solve(gzz, rhs)
+        return yp
+
+    def guard_values(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Values of this mode's guards at ``(t, y)``."""
+        if self._guards_fn is None:
+            return np.zeros(0)
+        return np.array(self._guards_fn([t, *np.asarray(y, dtype=float).tolist()]))
+
+    def guard_slot(self, name: str) -> int | None:
+        """The index of the guard of the transition called ``name`` (None: the mode has none)."""
+        for g in self.guards:
+            if g.name == name:
+                return g.index
+        return None
+
+    def guard_gradient(self, k: int, t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
+        """``(dh/dy, dh/dt)`` of guard ``k`` at ``(t, y)``."""
+        v = [t, *np.asarray(y, dtype=float).tolist()]
+        g = self.guards[k]
+        grad = np.zeros(self.n)
+        for j, d in g.grad:
+            grad[j] = d(v)
+        return grad, g.grad_t(v)
+
+    # ------------------------------------------------------------------
+    def taylor(self, t: float, y: np.ndarray, order: int) -> np.ndarray:
+        """Taylor coefficients of this mode's flow through ``(t, y)``.
+
+        Differential variables: ``x_{k+1} = f(x)_k / (k+1)``; slave variables:
+        the order-``k`` coefficient of ``g(x, z) = 0`` is linear in ``z_k``.
+
+        Returns
+        -------
+        ndarray, shape (n, order + 1)
+        """
+        n = self.n
+        X = np.zeros((n, order + 1))
+        X[:, 0] = y
+        tj = np.zeros(order + 1)
+        tj[0] = t
+        if order >= 1:
+            tj[1] = 1.0
+        a = self.alg_idx
+        Jzz = None
+        if a.size:
+            Jzz = self.dFdy(t, y)[np.ix_(a, a)]
+        f_rows, f_roots = list(self.f_expr), tuple(self.f_expr.values())
+        g_roots = tuple(self.g_expr[i] for i in a)
+        for k in range(order):
+            env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
+            series = taylor_eval_many(f_roots, env)  # shared sub-expressions once
+            for i, c in zip(f_rows, series, strict=True):
+                X[i, k + 1] = c[k] / (k + 1)
+            if a.size:
+                r = np.array([c[k + 1] for c in taylor_eval_many(g_roots, env)])
+                X[a, k + 1] = -np.linalg.solve(Jzz, r)
+        return X
+
+    def guard_series(
+        self, k: int, t: float, y: np.ndarray, order: int, X: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Taylor coefficients of guard ``k`` along this mode's flow from ``(t, y)``.
+
+        ``X`` may pass the flow's series from :meth:`taylor` (same point and order) to reuse it.
+        """
+        if X is None:
+            X = self.taylor(t, y, order)
+        tj = np.zeros(order + 1)
+        tj[0] = t
+        if order >= 1:
+            tj[1] = 1.0
+        return taylor_eval(self.guards[k].expr, self._env(tj, X))
