@@ -15,6 +15,7 @@ Sections (``python benchmarks/bifurcation.py [SECTION ...]``, all by default):
 * ``edges``: the absorber's four band edges continued in R over [0.3, 0.8] against the closed form;
 * ``rmin``: the smallest R with a bounded response of each damper and resonance, beside the
   averaging model's;
+* ``check``: the band loci of ``planes`` against the closed form (``band_edges``);
 * ``planes``: the stick-slip bands of each damper in (R, Omega) and (c3, Omega), the boundary of
   bounded response in (R, c3), the belt's Hopf and grazing curves in (v_b, c); each curve timed.
 
@@ -591,6 +592,38 @@ def planes(out: Path) -> dict:
     return res
 
 
+# ----------------------------------------------------------------------------
+def check(out: Path) -> dict:
+    """The points of the band loci written by ``planes`` (``band_*.csv``), located in Omega,
+    against ``band_edges``: the largest error and the intervals that miss the closed form."""
+    res = {}
+    for model in ("absorber", "isolator"):
+        base = study_params(model)
+        for p2 in ("R", "c3"):
+            path = out / f"band_{model}_{p2}.csv"
+            if not path.exists():
+                continue
+            worst, missing, n, loose = 0.0, [], 0, 0
+            for r in csv.DictReader(open(path)):
+                if r["located_in"] != "Omega":
+                    continue
+                W = float(r["Omega"])
+                lo, hi = band_edges(
+                    model, {**base, p2: float(r[p2])}, *((0.78, 0.93) if W < 1 else (1.08, 1.26))
+                )
+                ref = lo if abs(W - lo) < abs(W - hi) else hi
+                n += 1
+                loose += r["status"] != "located"
+                worst = max(worst, abs(W - ref))
+                if not float(r["interval_lo"]) <= ref <= float(r["interval_hi"]):
+                    missing.append({p2: float(r[p2]), "error": W - ref, "status": r["status"]})
+            res[f"{model}_{p2}"] = {"points": n, "not_located": loose, "max_error": worst, "missing": missing}
+            print(
+                f"{model} ({p2}, Omega): {n} points, max error {worst:.2g}, not located {loose}, missing {missing}"
+            )
+    return res
+
+
 SECTIONS = {
     "table": table,
     "shaw": shaw,
@@ -598,6 +631,7 @@ SECTIONS = {
     "edges": edges,
     "rmin": rmin,
     "planes": planes,
+    "check": check,
 }
 
 
