@@ -33,6 +33,7 @@ bounds, accelerations of sliding-from-rest blocks in their sliding direction).
 
 Output: one JSON object on stdout.
 """
+
 import argparse
 import json
 import math
@@ -47,8 +48,7 @@ from scipy.optimize import brentq
 
 def default_params(N):
     i = np.arange(1, N + 1)
-    return dict(N=N, m=1.0, k=1.0, kc=1.0, c=0.1, F=1.0, Omega=1.0,
-                R=0.3 * (1.0 + 0.1 * (-1.0) ** i))
+    return dict(N=N, m=1.0, k=1.0, kc=1.0, c=0.1, F=1.0, Omega=1.0, R=0.3 * (1.0 + 0.1 * (-1.0) ** i))
 
 
 def stiffness(p):
@@ -96,14 +96,16 @@ class Chain:
             if mode[i] != 0:
                 w = np.zeros(self.nz)
                 w[N + i] = mode[i]
-                W.append(w); owner.append(i)
+                W.append(w)
+                owner.append(i)
             else:
-                for sgn in (+1.0, -1.0):      # R - sgn * f_req, f_req = F sin - (K x)_i
+                for sgn in (+1.0, -1.0):  # R - sgn * f_req, f_req = F sin - (K x)_i
                     w = np.zeros(self.nz)
                     w[self.i1] = self.R[i]
                     w[self.iS] = -sgn * p["F"]
                     w[:N] = sgn * self.K[i]
-                    W.append(w); owner.append(i)
+                    W.append(w)
+                    owner.append(i)
         return np.array(W), np.array(owner, int)
 
     def freq(self, t, x):
@@ -148,6 +150,7 @@ class Chain:
 
 # ----------------------------------------------------------------------------- taylor backend
 
+
 def _horner(coef, s):
     """coef: (nf, n+1) with g(s) = sum_n coef[:, n] s^n ; vectorised in s (scalar)."""
     r = coef[:, -1].copy()
@@ -164,13 +167,18 @@ def _first_root_poly(c, delta, just, tol_g, nsamp=16):
     """
     P = np.polynomial.polynomial
     dc = P.polyder(c)
-    f = lambda s: P.polyval(s, c)
-    fd = lambda s: P.polyval(s, dc)
+
+    def f(s):
+        return P.polyval(s, c)
+
+    def fd(s):
+        return P.polyval(s, dc)
+
     ss = np.linspace(0.0, delta, nsamp + 1)
     g = P.polyval(ss, c)
     dg = P.polyval(ss, dc)
     if g[0] < -tol_g and not just:
-        raise RuntimeError("event function negative at the start of a phase: %r" % g[0])
+        raise RuntimeError(f"event function negative at the start of a phase: {g[0]!r}")
     for j in range(nsamp):
         a, b = ss[j], ss[j + 1]
         ga, gb = g[j], g[j + 1]
@@ -186,15 +194,14 @@ def _first_root_poly(c, delta, just, tol_g, nsamp=16):
             continue
         if gb < -tol_g or (gb <= 0.0 and dg[j + 1] < 0):
             return brentq(f, a, b, xtol=1e-17, rtol=8.9e-16)
-        if dg[j] < 0 < dg[j + 1]:          # interior minimum
+        if dg[j] < 0 < dg[j + 1]:  # interior minimum
             sc = brentq(fd, a, b, xtol=1e-17, rtol=8.9e-16)
             if f(sc) < -tol_g:
                 return brentq(f, a, sc, xtol=1e-17, rtol=8.9e-16)
     return None
 
 
-def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-13,
-               energy=False):
+def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-13, energy=False):
     N, p = ch.N, ch.p
     Om = p["Omega"]
     z = np.zeros(ch.nz)
@@ -204,8 +211,8 @@ def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-1
     switches, reversals = [], []
     fact = np.array([1.0 / math.factorial(n) for n in range(order + 1)])
     # initial mode decision at t = 0
-    mode, v = ch.decide(t, z[:N], z[N:2 * N], mode, tol_v, tol_f)
-    z[N:2 * N] = v
+    mode, v = ch.decide(t, z[:N], z[N : 2 * N], mode, tol_v, tol_f)
+    z[N : 2 * N] = v
     just = np.zeros(N, bool)
     M = ch.matrix(mode)
     W, owner = ch.events(mode)
@@ -223,22 +230,22 @@ def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-1
         for n in range(1, order + 1):
             Pm[:, n] = M @ Pm[:, n - 1]
         Pm *= fact
-        G = W @ Pm                      # event polynomial coefficients
-        sbest, kbest = None, None
+        G = W @ Pm  # event polynomial coefficients
+        sbest, _kbest = None, None
         for kf in range(G.shape[0]):
             r = _first_root_poly(G[kf], d, just[owner[kf]], tol_g)
             if r is not None and (sbest is None or r < sbest):
-                sbest, kbest = r, kf
+                sbest, _kbest = r, kf
         send = d if sbest is None else sbest
         if energy:
             # Gauss-Legendre on the polynomial pieces (exact up to round-off)
             ss = 0.5 * send * (gl_x + 1.0)
             ww = 0.5 * send * gl_w
             pw = ss[None, :] ** np.arange(order + 1)[:, None]
-            Z = Pm @ pw                  # (nz, nq)
-            vv = Z[N:2 * N]
+            Z = Pm @ pw  # (nz, nq)
+            vv = Z[N : 2 * N]
             WF += p["F"] * np.sum(ww * Z[ch.iS] * vv.sum(0))
-            Dc += p["c"] * np.sum(ww * (vv ** 2).sum(0))
+            Dc += p["c"] * np.sum(ww * (vv**2).sum(0))
         znew = Pm @ (send ** np.arange(order + 1))
         if energy:
             Df += float(np.sum(ch.R * mode * (znew[:N] - z[:N])))
@@ -248,69 +255,87 @@ def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-1
         if sbest is not None:
             n_events += 1
             old = mode.copy()
-            mode, v = ch.decide(t, z[:N], z[N:2 * N], mode, tol_v, tol_f)
-            z[N:2 * N] = v
+            mode, v = ch.decide(t, z[:N], z[N : 2 * N], mode, tol_v, tol_f)
+            z[N : 2 * N] = v
             for i in range(N):
                 if old[i] != 0 and mode[i] == 0:
-                    switches.append([t, i + 1, "stick"]); just[i] = True
+                    switches.append([t, i + 1, "stick"])
+                    just[i] = True
                 elif old[i] == 0 and mode[i] != 0:
-                    switches.append([t, i + 1, "slip"]); just[i] = True
+                    switches.append([t, i + 1, "slip"])
+                    just[i] = True
                 elif old[i] != 0 and mode[i] == -old[i]:
-                    reversals.append([t, i + 1]); just[i] = True
+                    reversals.append([t, i + 1])
+                    just[i] = True
             M = ch.matrix(mode)
             W, owner = ch.events(mode)
-    out = dict(t=t, x=z[:N].copy(), v=z[N:2 * N].copy(), mode=mode, switches=switches,
-               reversals=reversals, n_events=n_events)
+    out = dict(
+        t=t,
+        x=z[:N].copy(),
+        v=z[N : 2 * N].copy(),
+        mode=mode,
+        switches=switches,
+        reversals=reversals,
+        n_events=n_events,
+    )
     if energy:
-        E = 0.5 * p["m"] * np.sum(z[N:2 * N] ** 2) + 0.5 * z[:N] @ ch.K @ z[:N]
-        out["energy"] = dict(W_force=WF, D_damp=Dc, D_fric=Df, E_end=E,
-                             residual=WF - Dc - Df - E)
+        E = 0.5 * p["m"] * np.sum(z[N : 2 * N] ** 2) + 0.5 * z[:N] @ ch.K @ z[:N]
+        out["energy"] = dict(W_force=WF, D_damp=Dc, D_fric=Df, E_end=E, residual=WF - Dc - Df - E)
     return out
 
 
 # ----------------------------------------------------------------------------- ivp backend
 
+
 def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP853"):
     from scipy.integrate import solve_ivp
+
     N, p = ch.N, ch.p
-    Om, F = p["Omega"], p["F"]
-    x = np.zeros(N); v = np.zeros(N); t = 0.0
+    Om, _F = p["Omega"], p["F"]
+    x = np.zeros(N)
+    v = np.zeros(N)
+    t = 0.0
     mode = np.zeros(N, int)
     mode, v = ch.decide(t, x, v, mode, tol_v, tol_f)
     switches, reversals = [], []
     n_events = 0
     while t < T - 1e-14:
         M = ch.matrix(mode)
-        A = M[:2 * N, :2 * N]
-        bS = M[:2 * N, ch.iS]
-        b1 = M[:2 * N, ch.i1]
+        A = M[: 2 * N, : 2 * N]
+        bS = M[: 2 * N, ch.iS]
+        b1 = M[: 2 * N, ch.i1]
         W, owner = ch.events(mode)
-        Wy = W[:, :2 * N]; wS = W[:, ch.iS]; wC = W[:, ch.iC]; w1 = W[:, ch.i1]
+        Wy = W[:, : 2 * N]
+        wS = W[:, ch.iS]
+        wC = W[:, ch.iC]
+        w1 = W[:, ch.i1]
 
-        def rhs(tt, y):
+        def rhs(tt, y, A=A, bS=bS, b1=b1):
             return A @ y + bS * math.sin(Om * tt) + b1
 
         evs = []
         for kf in range(W.shape[0]):
-            def g(tt, y, kf=kf):
+
+            def g(tt, y, kf=kf, Wy=Wy, wS=wS, wC=wC, w1=w1):
                 return Wy[kf] @ y + wS[kf] * math.sin(Om * tt) + wC[kf] * math.cos(Om * tt) + w1[kf]
+
             g.terminal = True
             g.direction = -1
             evs.append(g)
         y0 = np.concatenate([x, v])
-        sol = solve_ivp(rhs, (t, T), y0, method=method, rtol=rtol, atol=atol, events=evs,
-                        dense_output=False)
+        sol = solve_ivp(rhs, (t, T), y0, method=method, rtol=rtol, atol=atol, events=evs, dense_output=False)
         # earliest event strictly after t (ignore a re-detection of the just-switched root)
         tev, yev = None, None
-        for kf, (te, ye) in enumerate(zip(sol.t_events, sol.y_events)):
-            for tt, yy in zip(te, ye):
+        for te, ye in zip(sol.t_events, sol.y_events, strict=False):
+            for tt, yy in zip(te, ye, strict=False):
                 if tt > t + 1e-12 and (tev is None or tt < tev):
                     tev, yev = tt, yy
         if tev is None:
             x, v = sol.y[:N, -1], sol.y[N:, -1]
             t = sol.t[-1]
             break
-        t = tev; x, v = yev[:N].copy(), yev[N:].copy()
+        t = tev
+        x, v = yev[:N].copy(), yev[N:].copy()
         old = mode.copy()
         n_events += 1
         mode, v = ch.decide(t, x, v, mode, tol_v, tol_f)
@@ -321,11 +346,11 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
                 switches.append([t, i + 1, "slip"])
             elif old[i] != 0 and mode[i] == -old[i]:
                 reversals.append([t, i + 1])
-    return dict(t=t, x=x, v=v, mode=mode, switches=switches, reversals=reversals,
-                n_events=n_events)
+    return dict(t=t, x=x, v=v, mode=mode, switches=switches, reversals=reversals, n_events=n_events)
 
 
 # ----------------------------------------------------------------------------- main
+
 
 def main(argv=None):
     ap = argparse.ArgumentParser()
@@ -345,14 +370,21 @@ def main(argv=None):
     else:
         r = run_ivp(ch, a.t_end, rtol=a.rtol, atol=a.rtol * 1e-2)
     wall = time.perf_counter() - t0
-    out = dict(N=a.N, backend=a.backend, t_end=r["t"], wall_s=wall,
-               x_end=[float(q) for q in r["x"]], v_end=[float(q) for q in r["v"]],
-               mode_end=[int(q) for q in r["mode"]],
-               switches=[] if a.no_switch_list else r["switches"],
-               n_switches=len(r["switches"]),
-               n_stick=sum(1 for s in r["switches"] if s[2] == "stick"),
-               n_slip=sum(1 for s in r["switches"] if s[2] == "slip"),
-               n_reversals=len(r["reversals"]), n_events=r["n_events"])
+    out = dict(
+        N=a.N,
+        backend=a.backend,
+        t_end=r["t"],
+        wall_s=wall,
+        x_end=[float(q) for q in r["x"]],
+        v_end=[float(q) for q in r["v"]],
+        mode_end=[int(q) for q in r["mode"]],
+        switches=[] if a.no_switch_list else r["switches"],
+        n_switches=len(r["switches"]),
+        n_stick=sum(1 for s in r["switches"] if s[2] == "stick"),
+        n_slip=sum(1 for s in r["switches"] if s[2] == "slip"),
+        n_reversals=len(r["reversals"]),
+        n_events=r["n_events"],
+    )
     if a.backend == "taylor":
         out.update(delta=a.delta, order=a.order)
     else:

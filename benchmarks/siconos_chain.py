@@ -16,6 +16,7 @@ Prints ONE JSON object on stdout.
 
 Example:  python3 siconos_chain.py --N 6 --h 1e-3 --t-end 50 --theta 0.5 --solver LEMKE
 """
+
 import argparse
 import json
 import math
@@ -30,11 +31,12 @@ import time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+
 try:
     import siconos.kernel as sk  # noqa: E402
     import siconos.numerics as sn  # noqa: E402
 except ImportError as e:  # Debian's python3-siconos exists only for the system interpreter
-    sys.exit("cannot import siconos (%s): run with /usr/bin/python3 (apt-get install python3-siconos)" % e)
+    sys.exit(f"cannot import siconos ({e}): run with /usr/bin/python3 (apt-get install python3-siconos)")
 
 SOLVERS = ["LEMKE", "ENUM", "PGS", "PATH", "AVI_CAOFERRIS", "AVI_CAOFERRIS_TEST"]
 
@@ -53,8 +55,7 @@ void chain_b(double time, unsigned int sizeOfB, double* b, unsigned int sizeOfZ,
 
 def params(N):
     i = np.arange(1, N + 1)
-    return dict(m=1.0, k=1.0, kc=1.0, c=0.1, F=1.0, Omega=1.0,
-                R=0.3 * (1.0 + 0.1 * (-1.0) ** i))
+    return dict(m=1.0, k=1.0, kc=1.0, c=0.1, F=1.0, Omega=1.0, R=0.3 * (1.0 + 0.1 * (-1.0) ** i))
 
 
 def stiffness(N, k, kc):
@@ -85,18 +86,35 @@ def main(argv=None):
     ap.add_argument("--t-end", type=float, default=50.0)
     ap.add_argument("--theta", type=float, default=0.5)
     ap.add_argument("--solver", default="LEMKE", choices=SOLVERS)
-    ap.add_argument("--tol", type=float, default=None,
-                    help="relay solver tolerance dparam[0] (default 1e-12 for PGS, 1e-10 otherwise)")
+    ap.add_argument(
+        "--tol",
+        type=float,
+        default=None,
+        help="relay solver tolerance dparam[0] (default 1e-12 for PGS, 1e-10 otherwise)",
+    )
     ap.add_argument("--maxiter", type=int, default=100000, help="iparam[0] for iterative solvers")
-    ap.add_argument("--relay", default="single", choices=["single", "per-contact"],
-                    help="one Interaction with RelayNSL(N,-1,1) or N Interactions with RelayNSL(1,-1,1)")
-    ap.add_argument("--relation", default="TIR", choices=["TIR", "R"],
-                    help="FirstOrderLinearTIR or FirstOrderLinearR")
-    ap.add_argument("--forcing", default="setb", choices=["setb", "plugin", "subclass"],
-                    help="setb: write b in place before each step (theta-weighted, = what a plugin gives);"
-                         " plugin: compiled C plugin via setComputebFunction; subclass: python override of computeb")
-    ap.add_argument("--ds", default="LDS", choices=["LDS", "TIDS"],
-                    help="FirstOrderLinearDS (default) or FirstOrderLinearTIDS (only with --forcing setb)")
+    ap.add_argument(
+        "--relay",
+        default="single",
+        choices=["single", "per-contact"],
+        help="one Interaction with RelayNSL(N,-1,1) or N Interactions with RelayNSL(1,-1,1)",
+    )
+    ap.add_argument(
+        "--relation", default="TIR", choices=["TIR", "R"], help="FirstOrderLinearTIR or FirstOrderLinearR"
+    )
+    ap.add_argument(
+        "--forcing",
+        default="setb",
+        choices=["setb", "plugin", "subclass"],
+        help="setb: write b in place before each step (theta-weighted, = what a plugin gives);"
+        " plugin: compiled C plugin via setComputebFunction; subclass: python override of computeb",
+    )
+    ap.add_argument(
+        "--ds",
+        default="LDS",
+        choices=["LDS", "TIDS"],
+        help="FirstOrderLinearDS (default) or FirstOrderLinearTIDS (only with --forcing setb)",
+    )
     ap.add_argument("--no-monitor", action="store_true", help="do not classify contacts per step")
     ap.add_argument("--eps-v", type=float, default=1e-9, help="|v| below this counts as at rest")
     ap.add_argument("--eps-lam", type=float, default=1e-9, help="|lambda| < 1-eps_lam counts as interior")
@@ -130,10 +148,12 @@ def main(argv=None):
 
     # ---------------------------------------------------------------- dynamical system
     if a.forcing == "subclass":
+
         class ForcedDS(sk.FirstOrderLinearDS):
             def computeb(self, t):
                 bb = self.b()
                 bb[N:] = F / m * math.sin(Om * t)
+
         ds = ForcedDS(X0, A)
         ds.setb(np.zeros(2 * N))
     elif a.forcing == "plugin":
@@ -154,13 +174,17 @@ def main(argv=None):
     Rel = sk.FirstOrderLinearTIR if a.relation == "TIR" else sk.FirstOrderLinearR
     inters = []
     if a.relay == "single":
-        C = np.zeros((N, 2 * N)); C[:, N:] = np.eye(N)
-        B = np.zeros((2 * N, N)); B[N:, :] = np.diag(R / m)
+        C = np.zeros((N, 2 * N))
+        C[:, N:] = np.eye(N)
+        B = np.zeros((2 * N, N))
+        B[N:, :] = np.diag(R / m)
         inters.append(sk.Interaction(sk.RelayNSL(N, -1.0, 1.0), Rel(C, B)))
     else:
         for i in range(N):
-            C = np.zeros((1, 2 * N)); C[0, N + i] = 1.0
-            B = np.zeros((2 * N, 1)); B[N + i, 0] = R[i] / m
+            C = np.zeros((1, 2 * N))
+            C[0, N + i] = 1.0
+            B = np.zeros((2 * N, 1))
+            B[N + i, 0] = R[i] / m
             inters.append(sk.Interaction(sk.RelayNSL(1, -1.0, 1.0), Rel(C, B)))
 
     nsds = sk.NonSmoothDynamicalSystem(0.0, T)
@@ -181,22 +205,21 @@ def main(argv=None):
     sim.setWarnOnNonConvergence(False) if hasattr(sim, "setWarnOnNonConvergence") else None
     sim.initialize()
 
-    X = ds.x()                           # live numpy view of the state
-    bvec = ds.b()                        # live numpy view of b
+    X = ds.x()  # live numpy view of the state
+    bvec = ds.b()  # live numpy view of b
     lam_views = [it.lambda_(0) for it in inters]
     setup_s = time.perf_counter() - ts0
 
     # ---------------------------------------------------------------- time loop
     nsteps_expected = int(round(T / h))
-    s_prev = np.zeros(N)                 # initial state: all blocks at rest (stick)
+    s_prev = np.zeros(N)  # initial state: all blocks at rest (stick)
     eps_v = a.eps_v
     switches = []
-    n_info_fail = 0
     fb = F / m
     monitor = not a.no_monitor
     single = a.relay == "single"
     lam = np.zeros(N)
-    last_s = np.zeros(N)                 # last sliding direction (+-1), 0 = never slid
+    last_s = np.zeros(N)  # last sliding direction (+-1), 0 = never slid
     n_rev = 0
     lo = 1.0 - a.eps_lam
     k = 0
@@ -210,11 +233,11 @@ def main(argv=None):
         sim.computeOneStep()
         k += 1
         if monitor:
-            lam = lam_views[0] if single else np.array([l[0] for l in lam_views])
+            lam = lam_views[0] if single else np.array([lv[0] for lv in lam_views])
             # contact state: 0 = stick (|lambda| < 1 strictly inside, |v| tiny), +-1 = slip dir
             s_now = -np.sign(lam)
             s_now[(np.abs(lam) < lo) & (np.abs(X[N:]) < eps_v)] = 0.0
-            if not np.array_equal(s_now, s_prev):      # rare: handle in python
+            if not np.array_equal(s_now, s_prev):  # rare: handle in python
                 tnow = sim.nextTime()
                 for i in np.nonzero(s_now != s_prev)[0]:
                     new_s, old_s = s_now[i], s_prev[i]
@@ -247,26 +270,42 @@ def main(argv=None):
     cap.close()
     n_warn = log.count("Problem in Relay resolution")
     if log.strip():
-        sys.stderr.write("[siconos output, first 5 lines of %d]\n" % log.count("\n"))
+        sys.stderr.write(f"[siconos output, first 5 lines of {log.count(chr(10))}]\n")
         sys.stderr.write("\n".join(log.splitlines()[:5]) + "\n")
     x_end = X[:N].copy()
     v_end = X[N:].copy()
     t_final = sim.startingTime()
-    out = dict(N=N, h=a.h, h_used=h, t_final=t_final, theta=theta, solver=a.solver, relay=a.relay, relation=a.relation,
-               forcing=a.forcing, ds=a.ds,
-               blas_threads=os.environ.get("OPENBLAS_NUM_THREADS"), wall_s=wall, setup_s=setup_s, steps=k,
-               steps_expected=nsteps_expected, t_end=T,
-               x_end=[float(q) for q in x_end], v_end=[float(q) for q in v_end],
-               lambda_end=[float(q) for l in lam_views for q in l],
-               switches=[] if a.no_switch_list else switches,
-               n_switches=len(switches) if monitor else None,
-               n_stick=sum(1 for s in switches if s[2] == "stick") if monitor else None,
-               n_slip=sum(1 for s in switches if s[2] == "slip") if monitor else None,
-               n_one_step_sticks=short if monitor else None,
-               n_switches_filtered=(len(switches) - 2 * short) if monitor else None,
-               n_reversals=n_rev if monitor else None,
-               tol=a.tol, n_solver_warnings=n_warn,
-               finite=bool(np.all(np.isfinite(X))))
+    out = dict(
+        N=N,
+        h=a.h,
+        h_used=h,
+        t_final=t_final,
+        theta=theta,
+        solver=a.solver,
+        relay=a.relay,
+        relation=a.relation,
+        forcing=a.forcing,
+        ds=a.ds,
+        blas_threads=os.environ.get("OPENBLAS_NUM_THREADS"),
+        wall_s=wall,
+        setup_s=setup_s,
+        steps=k,
+        steps_expected=nsteps_expected,
+        t_end=T,
+        x_end=[float(q) for q in x_end],
+        v_end=[float(q) for q in v_end],
+        lambda_end=[float(q) for lv in lam_views for q in lv],
+        switches=[] if a.no_switch_list else switches,
+        n_switches=len(switches) if monitor else None,
+        n_stick=sum(1 for s in switches if s[2] == "stick") if monitor else None,
+        n_slip=sum(1 for s in switches if s[2] == "slip") if monitor else None,
+        n_one_step_sticks=short if monitor else None,
+        n_switches_filtered=(len(switches) - 2 * short) if monitor else None,
+        n_reversals=n_rev if monitor else None,
+        tol=a.tol,
+        n_solver_warnings=n_warn,
+        finite=bool(np.all(np.isfinite(X))),
+    )
     json.dump(out, sys.stdout)
     sys.stdout.write("\n")
 
