@@ -93,8 +93,18 @@ def run(args, cwd: Path, timeout: float = 900, stdin=None, stdout=None, shell: s
     files = ""
     if out is not None:
         o = cwd / out
-        files = " ".join(sorted(p.name for p in o.iterdir())) if o.is_dir() else "(no folder)"
+        files = _listing(o)
     return code, msg, wall, peak, files
+
+
+def _listing(o: Path) -> str:
+    """The names in folder ``o``, its point files counted rather than listed."""
+    if not o.is_dir():
+        return "(no folder)"
+    names = sorted(p.name for p in o.iterdir())
+    points = [n for n in names if n.startswith("point-") and n.endswith(".json")]
+    rest = [n for n in names if n not in points]
+    return " ".join(rest + ([f"+ {len(points)} point files"] if points else []))
 
 
 def cut(text: str, n: int = 170) -> str:
@@ -351,7 +361,7 @@ def fulldisk() -> None:
                 None,
             ),
             (
-                "sweep absorber, 11 points",
+                "sweep absorber, 26 points",
                 [
                     "sweep",
                     "absorber",
@@ -359,7 +369,7 @@ def fulldisk() -> None:
                     "R",
                     "0.3",
                     "0.8",
-                    "0.05",
+                    "0.02",
                     "--integrator",
                     "exact",
                     "--omega-range",
@@ -369,10 +379,10 @@ def fulldisk() -> None:
                     "2",
                     "--no-progress",
                 ],
-                60,
+                80,  # (more than the 64 KiB checked up front; fills after about 17 point files)
                 ["--resume"],
             ),
-            ("reproduce --figure 5", ["reproduce", "--figure", "5", "--no-progress"], 60, None),
+            ("reproduce --figure 5", ["reproduce", "--figure", "5", "--no-progress"], 68, None),
         ]
         for name, args, free_kb, again in cases:
             if not _mount(fs, "4m"):

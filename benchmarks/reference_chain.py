@@ -167,13 +167,18 @@ def _first_root_poly(c, delta, just, tol_g, nsamp=16):
     """
     P = np.polynomial.polynomial
     dc = P.polyder(c)
-    f = lambda s: P.polyval(s, c)
-    fd = lambda s: P.polyval(s, dc)
+
+    def f(s):
+        return P.polyval(s, c)
+
+    def fd(s):
+        return P.polyval(s, dc)
+
     ss = np.linspace(0.0, delta, nsamp + 1)
     g = P.polyval(ss, c)
     dg = P.polyval(ss, dc)
     if g[0] < -tol_g and not just:
-        raise RuntimeError("event function negative at the start of a phase: %r" % g[0])
+        raise RuntimeError(f"event function negative at the start of a phase: {g[0]!r}")
     for j in range(nsamp):
         a, b = ss[j], ss[j + 1]
         ga, gb = g[j], g[j + 1]
@@ -226,11 +231,11 @@ def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-1
             Pm[:, n] = M @ Pm[:, n - 1]
         Pm *= fact
         G = W @ Pm  # event polynomial coefficients
-        sbest, kbest = None, None
+        sbest, _kbest = None, None
         for kf in range(G.shape[0]):
             r = _first_root_poly(G[kf], d, just[owner[kf]], tol_g)
             if r is not None and (sbest is None or r < sbest):
-                sbest, kbest = r, kf
+                sbest, _kbest = r, kf
         send = d if sbest is None else sbest
         if energy:
             # Gauss-Legendre on the polynomial pieces (exact up to round-off)
@@ -286,7 +291,7 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
     from scipy.integrate import solve_ivp
 
     N, p = ch.N, ch.p
-    Om, F = p["Omega"], p["F"]
+    Om, _F = p["Omega"], p["F"]
     x = np.zeros(N)
     v = np.zeros(N)
     t = 0.0
@@ -305,13 +310,13 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
         wC = W[:, ch.iC]
         w1 = W[:, ch.i1]
 
-        def rhs(tt, y):
+        def rhs(tt, y, A=A, bS=bS, b1=b1):
             return A @ y + bS * math.sin(Om * tt) + b1
 
         evs = []
         for kf in range(W.shape[0]):
 
-            def g(tt, y, kf=kf):
+            def g(tt, y, kf=kf, Wy=Wy, wS=wS, wC=wC, w1=w1):
                 return Wy[kf] @ y + wS[kf] * math.sin(Om * tt) + wC[kf] * math.cos(Om * tt) + w1[kf]
 
             g.terminal = True
@@ -321,8 +326,8 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
         sol = solve_ivp(rhs, (t, T), y0, method=method, rtol=rtol, atol=atol, events=evs, dense_output=False)
         # earliest event strictly after t (ignore a re-detection of the just-switched root)
         tev, yev = None, None
-        for kf, (te, ye) in enumerate(zip(sol.t_events, sol.y_events)):
-            for tt, yy in zip(te, ye):
+        for te, ye in zip(sol.t_events, sol.y_events, strict=False):
+            for tt, yy in zip(te, ye, strict=False):
                 if tt > t + 1e-12 and (tev is None or tt < tev):
                     tev, yev = tt, yy
         if tev is None:

@@ -36,7 +36,7 @@ try:
     import siconos.kernel as sk  # noqa: E402
     import siconos.numerics as sn  # noqa: E402
 except ImportError as e:  # Debian's python3-siconos exists only for the system interpreter
-    sys.exit("cannot import siconos (%s): run with /usr/bin/python3 (apt-get install python3-siconos)" % e)
+    sys.exit(f"cannot import siconos ({e}): run with /usr/bin/python3 (apt-get install python3-siconos)")
 
 SOLVERS = ["LEMKE", "ENUM", "PGS", "PATH", "AVI_CAOFERRIS", "AVI_CAOFERRIS_TEST"]
 
@@ -215,7 +215,6 @@ def main(argv=None):
     s_prev = np.zeros(N)  # initial state: all blocks at rest (stick)
     eps_v = a.eps_v
     switches = []
-    n_info_fail = 0
     fb = F / m
     monitor = not a.no_monitor
     single = a.relay == "single"
@@ -234,7 +233,7 @@ def main(argv=None):
         sim.computeOneStep()
         k += 1
         if monitor:
-            lam = lam_views[0] if single else np.array([l[0] for l in lam_views])
+            lam = lam_views[0] if single else np.array([lv[0] for lv in lam_views])
             # contact state: 0 = stick (|lambda| < 1 strictly inside, |v| tiny), +-1 = slip dir
             s_now = -np.sign(lam)
             s_now[(np.abs(lam) < lo) & (np.abs(X[N:]) < eps_v)] = 0.0
@@ -271,7 +270,7 @@ def main(argv=None):
     cap.close()
     n_warn = log.count("Problem in Relay resolution")
     if log.strip():
-        sys.stderr.write("[siconos output, first 5 lines of %d]\n" % log.count("\n"))
+        sys.stderr.write(f"[siconos output, first 5 lines of {log.count(chr(10))}]\n")
         sys.stderr.write("\n".join(log.splitlines()[:5]) + "\n")
     x_end = X[:N].copy()
     v_end = X[N:].copy()
@@ -295,7 +294,7 @@ def main(argv=None):
         t_end=T,
         x_end=[float(q) for q in x_end],
         v_end=[float(q) for q in v_end],
-        lambda_end=[float(q) for l in lam_views for q in l],
+        lambda_end=[float(q) for lv in lam_views for q in lv],
         switches=[] if a.no_switch_list else switches,
         n_switches=len(switches) if monitor else None,
         n_stick=sum(1 for s in switches if s[2] == "stick") if monitor else None,

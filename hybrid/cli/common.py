@@ -84,7 +84,7 @@ def guess(system: HybridSystem, args) -> tuple[dict[str, float], str]:
     hybrid.core.errors.ModelError, hybrid.core.errors.InputError
         An unknown mode, an unknown variable or a value that is not finite.
     """
-    mode0 = args.mode0 if args.mode0 is not None else system.initial_mode
+    mode0 = args.mode0 if args.mode0 is not None else system.default_mode
     if mode0 is None:
         raise UsageError(f"model `{system.name}` declares no initial mode: give --mode0")
     system.mode(mode0)  # unknown mode -> ModelError

@@ -30,6 +30,7 @@ from ..core.budget import deadline_passed, limit_text
 from ..core.errors import InputError, InputTypeError, ParameterOutOfDomain
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus
+from ..core.threads import with_blas_threads
 from ..model.system import HybridSystem
 from ..orbits.autonomous import AutonomousSolver, finish, resolve_phase
 from ..orbits.equilibria import Equilibrium, equilibrium, locate_hopf
@@ -49,6 +50,7 @@ AUTONOMOUS_CONTINUATION = ContinuationOptions(
 )
 
 
+@with_blas_threads
 def equilibrium_branch(
     system: HybridSystem,
     params: Mapping[str, float],
@@ -374,6 +376,7 @@ def _check_settings(settings) -> ContinuationOptions:
     return settings
 
 
+@with_blas_threads
 def orbit_branch(
     orbit: PeriodicOrbit,
     parameter: str,
@@ -455,6 +458,7 @@ def orbit_branch(
     )
 
 
+@with_blas_threads
 def hopf_branch(
     eq: Equilibrium,
     parameter: str,

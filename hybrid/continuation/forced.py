@@ -35,6 +35,7 @@ from ..core.options import (
     SolverOptions,
     reject_keywords,
 )
+from ..core.threads import with_blas_threads
 from ..engine.simulate import check_time_range, initial_state
 from ..engine.trajectory import Status
 from ..model.system import HybridSystem
@@ -547,6 +548,7 @@ def _size(o: PeriodicOrbit) -> float:
     return max((o.amplitude[n] for n in o.state_names if n in o.amplitude), default=0.0)
 
 
+@with_blas_threads
 def continue_orbits(
     system: HybridSystem,
     params: Mapping[str, float],

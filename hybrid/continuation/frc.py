@@ -25,6 +25,7 @@ from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus, ResponseStatus
+from ..core.threads import with_blas_threads
 from ..core.workers import die_with_parent
 from ..model.linear import natural_frequencies
 from ..model.plot_hints import plot_hints
@@ -268,6 +269,7 @@ def _cuts(lo: float, hi: float, w: np.ndarray) -> list[tuple[float, float, float
     return out
 
 
+@with_blas_threads
 def frequency_response(
     system: HybridSystem,
     params: Mapping[str, float],

@@ -16,6 +16,7 @@ import numpy as np
 from ..core.callbacks import Progress
 from ..core.errors import AlgebraicSolveError, InputError, InputTypeError
 from ..core.options import SolverOptions
+from ..core.threads import with_blas_threads
 from ..integrators.registry import integrator
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
@@ -223,6 +224,7 @@ def simulate(
     )
 
 
+@with_blas_threads
 def run_compiled(
     cs: CompiledSystem,
     options: SolverOptions,

@@ -33,6 +33,7 @@ import numpy as np
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ParameterOutOfDomain
 from ..core.options import ShootingOptions, SolverOptions, reject_keywords
 from ..core.status import SolveStatus
+from ..core.threads import with_blas_threads
 from ..engine.simulate import initial_state
 from ..model.orbit_hints import period_guess
 from ..model.system import HybridSystem
@@ -214,6 +215,7 @@ class AutonomousSolver:
 RETURN_WINDOW = 3.0
 
 
+@with_blas_threads
 def autonomous_orbit(
     system: HybridSystem,
     params: Mapping[str, float],

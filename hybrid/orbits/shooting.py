@@ -34,6 +34,7 @@ import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError
 from ..core.options import ShootingOptions, SolverOptions
+from ..core.threads import with_blas_threads
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
 from ..model.system import HybridSystem
@@ -56,6 +57,7 @@ __all__ = ["shoot_orbit", "solve_orbit"]
 # ----------------------------------------------------------------------
 
 
+@with_blas_threads
 def shoot_orbit(
     system: HybridSystem,
     params: Mapping[str, float],
@@ -114,6 +116,7 @@ def shoot_orbit(
     )
 
 
+@with_blas_threads
 def solve_orbit(
     shooter: Shooter,
     y: np.ndarray,

@@ -51,7 +51,7 @@ from ..core.options import ContinuationOptions, SolverOptions
 from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
 from ..engine.io import to_json
-from ..model.elements import Mode, Parameter, Transition, Variable
+from ..model.elements import Component, Mode, Parameter, Transition, Variable
 from ..model.expr import Expr, from_data, to_data
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem
@@ -287,6 +287,16 @@ def system_from_data(data: Mapping) -> HybridSystem:
     d["parameters"] = [Parameter(**p) for p in d["parameters"]]
     d["modes"] = [Mode(**m) for m in d["modes"]]
     d["transitions"] = [Transition(**t) for t in d["transitions"]]
+    d["components"] = [
+        Component(
+            **{
+                **c,
+                "modes": [Mode(**m) for m in c["modes"]],
+                "transitions": [Transition(**t) for t in c["transitions"]],
+            }
+        )
+        for c in d.get("components", ())
+    ]
     return HybridSystem(**d)
 
 

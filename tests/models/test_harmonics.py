@@ -277,3 +277,25 @@ def test_amplitude_and_harmonics_together_are_refused():
         ModelError, match=r"give `amplitude` \(one harmonic\) or `harmonics` \(several\), not both"
     ):
         build(data)
+
+
+def test_a_cells_force_of_harmonics_and_element_names_shared_with_parameters():
+    """A cell's force may be a sum of harmonics (the copy's index and per-copy parameters substituted
+    in amplitudes and phases), and a cell's elements may be named as a parameter (the cell's own
+    `R`, the top-level `k`): element names have a namespace of their own in cells too."""
+    text = (ROOT / "models" / "bk_chain.toml").read_text().replace("count = 20", "count = 3")
+    text = text.replace(
+        '[cells.block.forces.drive]\non = "x"\namplitude = "F"\nfrequency = "Omega"',
+        '[cells.block.forces.drive]\non = "x"\nfrequency = "Omega"\n'
+        'harmonics = [ { amplitude = "F" }, { amplitude = "F*i", multiple = 2, phase = "0.1*i" } ]',
+    )
+    text = text.replace("[cells.block.friction.contact]", "[cells.block.friction.R]")
+    text = text.replace("[cells.block.springs.anchor]", "[cells.block.springs.k]")
+    system = build(tomllib.loads(text))
+    assert [c.name for c in system.components] == ["R_1", "R_2", "R_3"]
+    assert system.definitions["drive_2"] == "F*sin(Omega*t) + (F*(2))*sin(2*Omega*t + (0.1*(2)))"
+    twice = text.replace("[cells.block.springs.k]", "[cells.block.springs.R]")
+    with pytest.raises(
+        ModelError, match=r"\[cells\.block\.friction\.R\]: the name `R` is already \[springs\.R\] of the cell"
+    ):
+        build(tomllib.loads(twice))
