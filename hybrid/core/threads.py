@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import sys
 import threading
 from collections.abc import Callable, Iterator
 from typing import TypeVar
@@ -33,6 +34,7 @@ BLAS_THREADS_ENV = "HYBRID_BLAS_THREADS"
 
 _state = threading.local()
 _controller = None
+_modules = -1  # len(sys.modules) when the controller was made
 _lock = threading.Lock()
 
 F = TypeVar("F", bound=Callable)
@@ -52,13 +54,17 @@ def _limit() -> int:
 
 
 def _get_controller():
-    global _controller
-    if _controller is None:
+    """The threadpoolctl controller of the BLAS libraries loaded now: made again when modules were
+    imported since (an import may load another BLAS: scikit-sundae brings its own OpenBLAS, loaded
+    with the first IDA run, which a controller made before it would leave unlimited)."""
+    global _controller, _modules
+    if _controller is None or len(sys.modules) != _modules:
         with _lock:
-            if _controller is None:
+            if _controller is None or len(sys.modules) != _modules:
                 from threadpoolctl import ThreadpoolController
 
                 _controller = ThreadpoolController()
+                _modules = len(sys.modules)
     return _controller
 
 

@@ -47,3 +47,27 @@ def test_a_bad_setting_names_the_variable(monkeypatch, text):
     monkeypatch.setenv(BLAS_THREADS_ENV, text)
     with pytest.raises(InputError, match=BLAS_THREADS_ENV), blas_threads():
         pass
+
+
+def test_a_blas_library_loaded_after_the_first_limit_is_limited_too(two_threads, monkeypatch):
+    """scikit-sundae brings its own OpenBLAS, loaded with the first IDA run: a controller made before
+    it (an exact run first) must not leave it unlimited. Simulated by a controller that knows only
+    one of the libraries loaded now, made before the last import."""
+    import sys
+
+    from threadpoolctl import ThreadpoolController
+
+    import hybrid.core.threads as threads
+
+    if len(_blas_threads()) < 2:
+        pytest.skip("one BLAS library loaded: nothing can be missed")
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    stale = ThreadpoolController()
+    stale.lib_controllers = stale.lib_controllers[:1]
+    monkeypatch.setattr(threads, "_controller", stale)
+    monkeypatch.setattr(threads, "_modules", len(sys.modules) - 1)  # a module imported since
+    with blas_threads():
+        assert set(_blas_threads()) == {1}  # every library, not only the one the stale controller knew
+    fresh = threads._get_controller()
+    assert fresh is not stale
+    assert threads._get_controller() is fresh  # no import since: kept
