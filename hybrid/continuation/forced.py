@@ -432,7 +432,7 @@ class _Continuer:
             tr = self.tight.run(pt.y, pt.mode, pt.phi * self.sh.period)
         except _FAILURES:
             return None
-        return _Summary(tr, self.tight.period) if tr.success else None
+        return _Summary(tr, self.tight.period, self.system) if tr.success else None
 
     def complete(self, pt: _Point, nw, t0: float, it: int, res: float, samples: int, M) -> PeriodicOrbit:
         """The orbit of a light point: its sampled run and amplitudes (the monodromy ``M`` is known)."""

@@ -646,7 +646,9 @@ def fold_integration_error(c, pt) -> float:
         if not den > 0:
             return math.inf
         return RERUN_SAFETY * abs(float(psi @ delta)) / den
-    except Exception:  # noqa: BLE001 - any failure of the estimate: say it is unknown
+    except (ArithmeticError, ValueError, RuntimeError, np.linalg.LinAlgError):
+        # a failure of the estimate's runs or algebra: say it is unknown (a budget or a defect
+        # of the code is not caught)
         return math.inf
 
 
