@@ -14,7 +14,7 @@ fits the growth exponents (least squares in logs over N >= 16) and writes
 ``docs/networks/scaling.json`` and ``docs/networks/scaling.png`` (log-log).
 
 Run: ``python benchmarks/scaling.py`` (about 20 minutes on 2 cores; ``--max-n 64`` for a quick look,
-``--integrators exact``).
+``--integrators exact``; IDA up to ``--max-n-ida``, 128 by default).
 """
 
 from __future__ import annotations
@@ -88,8 +88,12 @@ def plot(rows: list[dict], path: Path) -> None:
     for integ in sorted({r["integrator"] for r in rows}):
         sel = [r for r in rows if r["integrator"] == integ]
         n = [r["blocks"] for r in sel]
-        ax.loglog(n, [r["setup_s"] for r in sel], "s--", color=styles.get(integ, "C2"), label=f"{integ}: set-up")
-        ax.loglog(n, [r["run_s"] for r in sel], "o-", color=styles.get(integ, "C2"), label=f"{integ}: 50 s run")
+        ax.loglog(
+            n, [r["setup_s"] for r in sel], "s--", color=styles.get(integ, "C2"), label=f"{integ}: set-up"
+        )
+        ax.loglog(
+            n, [r["run_s"] for r in sel], "o-", color=styles.get(integ, "C2"), label=f"{integ}: 50 s run"
+        )
     n = np.array(sorted({r["blocks"] for r in rows}), dtype=float)
     for p, ls in ((1.0, ":"), (2.0, "-.")):
         ref = 0.05 * (n / n[0]) ** p
@@ -107,6 +111,13 @@ def plot(rows: list[dict], path: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--max-n", type=int, default=256)
+    ap.add_argument(
+        "--max-n-ida",
+        type=int,
+        default=128,
+        help="largest N run with IDA (its guards' Taylor series at every switch cost O(N) each: "
+        "N = 256 takes about half an hour)",
+    )
     ap.add_argument("--integrators", nargs="+", default=["exact", "ida"])
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args(argv)
@@ -115,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'N':>5} {'integrator':>10} {'set-up [s]':>11} {'run [s]':>9} {'switches':>9} {'load':>5}")
     for integ in args.integrators:
         for n in sizes:
+            if integ == "ida" and n > args.max_n_ida:
+                continue
             r = measure(n, integ)
             rows.append(r)
             print(
@@ -129,9 +142,13 @@ def main(argv: list[str] | None = None) -> int:
         for integ in args.integrators
     }
     for integ, f in fits.items():
-        print(f"{integ}: set-up grows as N^{f['setup_exponent']:.2f}, run as N^{f['run_exponent']:.2f} (N >= 16)")
+        print(
+            f"{integ}: set-up grows as N^{f['setup_exponent']:.2f}, run as N^{f['run_exponent']:.2f} (N >= 16)"
+        )
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "scaling.json").write_text(json.dumps({"t_end": T_END, "rows": rows, "fits": fits}, indent=1) + "\n")
+    (args.out / "scaling.json").write_text(
+        json.dumps({"t_end": T_END, "rows": rows, "fits": fits}, indent=1) + "\n"
+    )
     plot(rows, args.out / "scaling.png")
     print(f"wrote {args.out / 'scaling.json'} and {args.out / 'scaling.png'}")
     return 0
