@@ -94,10 +94,10 @@ def plot(rows: list[dict], path: Path) -> None:
         sel = [r for r in rows if r["integrator"] == integ]
         n = [r["blocks"] for r in sel]
         ax.loglog(
-            n, [r["setup_s"] for r in sel], "s--", color=styles.get(integ, "C2"), label=f"{integ}: set-up"
+            n, [r["setup_cpu_s"] for r in sel], "s--", color=styles.get(integ, "C2"), label=f"{integ}: set-up"
         )
         ax.loglog(
-            n, [r["run_s"] for r in sel], "o-", color=styles.get(integ, "C2"), label=f"{integ}: 50 s run"
+            n, [r["run_cpu_s"] for r in sel], "o-", color=styles.get(integ, "C2"), label=f"{integ}: 50 s run"
         )
     n = np.array(sorted({r["blocks"] for r in rows}), dtype=float)
     for p, ls in ((1.0, ":"), (2.0, "-.")):
@@ -125,7 +125,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--integrators", nargs="+", default=["exact", "ida"])
     ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--replot", action="store_true", help="redraw the figure from the JSON written before")
     args = ap.parse_args(argv)
+    if args.replot:
+        plot(json.loads((args.out / "scaling.json").read_text())["rows"], args.out / "scaling.png")
+        print(f"wrote {args.out / 'scaling.png'}")
+        return 0
     sizes = [2**k for k in range(0, 20) if 2**k <= args.max_n]
     rows = []
     print(
