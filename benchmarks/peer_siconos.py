@@ -91,7 +91,9 @@ def ours(n: int) -> dict:
     start = time.perf_counter()
     system = system_from_dict(chain(n))
     zero = dict.fromkeys(system.variable_names, 0.0)
-    tr = simulate(system, system.preset("standard"), (0.0, T_END), zero, options=SolverOptions(integrator="exact"))
+    tr = simulate(
+        system, system.preset("standard"), (0.0, T_END), zero, options=SolverOptions(integrator="exact")
+    )
     wall = time.perf_counter() - start
     x = np.array([tr.final(f"x_{i}") for i in range(1, n + 1)])
     breakaway, reversals, sticks = {}, 0, 0
@@ -119,11 +121,22 @@ def ours(n: int) -> dict:
 
 
 def reference(n: int) -> dict:
-    return run_json([sys.executable, str(HERE / "reference_chain.py"), "--N", str(n), "--no-switch-list"], 3600)
+    return run_json(
+        [sys.executable, str(HERE / "reference_chain.py"), "--N", str(n), "--no-switch-list"], 3600
+    )
 
 
 def siconos(n: int, h: float, solver: str) -> dict:
-    cmd = [SICONOS_PYTHON, str(HERE / "siconos_chain.py"), "--N", str(n), "--h", repr(h), "--t-end", repr(T_END)]
+    cmd = [
+        SICONOS_PYTHON,
+        str(HERE / "siconos_chain.py"),
+        "--N",
+        str(n),
+        "--h",
+        repr(h),
+        "--t-end",
+        repr(T_END),
+    ]
     out = run_json([*cmd, "--solver", solver], 24 * 3600)
     out["load"] = load()
     return out
@@ -159,7 +172,9 @@ def main(argv: list[str] | None = None) -> int:
         ref = reference(n)
         x = np.array(mine["x_end"])
         err_ours = float(np.max(np.abs(x - np.array(ref["x_end"]))))
-        print(f"N = {n}: this library {mine['wall_s']:.3f} s (load {mine['load']}), error {err_ours:.2e} vs reference")
+        print(
+            f"N = {n}: this library {mine['wall_s']:.3f} s (load {mine['load']}), error {err_ours:.2e} vs reference"
+        )
         runs = []
         for h in STEPS.get(n, (1e-3,)):
             s = siconos(n, h, args.solver)
