@@ -118,7 +118,7 @@ class Locator:
             )
         except FAILURES:
             return None
-        return _Summary(tr, o.period) if tr.success else None
+        return _Summary(tr, o.period, self.fm.system) if tr.success else None
 
 
 def transversality(fm: FlowMap, orbit) -> float:

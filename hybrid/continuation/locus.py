@@ -344,7 +344,7 @@ def _trace(reloc, start, p1, p2, rng2, sense, scale, step, max_points, window, o
         h_last = h
         v = found.values[p2]
         if not lo2 <= v <= hi2:
-            end = _at_the_end(reloc, cur, found, p1, p2, hi2 if v > hi2 else lo2, t, scale)
+            end = _at_the_end(reloc, cur, found, p1, p2, hi2 if v > hi2 else lo2, t, scale, h)
             if end is not None:
                 pts.append(end)
                 if on_point is not None:
@@ -359,9 +359,11 @@ def _trace(reloc, start, p1, p2, rng2, sense, scale, step, max_points, window, o
     return pts, f"reached max_points = {max_points}"
 
 
-def _at_the_end(reloc, cur: LocusPoint, found: LocusPoint, p1, p2, bound: float, t, scale):
+def _at_the_end(reloc, cur: LocusPoint, found: LocusPoint, p1, p2, bound: float, t, scale, h: float):
     """The locus's point at ``p2 = bound`` (the end of the range it just left between ``cur`` and
-    ``found``), located in ``p1``; None where that fails or the point is only bracketed."""
+    ``found``), located in ``p1``; None where that fails or the point is bracketed more loosely
+    than an inner point is accepted (a hundredth of the step ``h``: e.g. only by the rounding
+    margin of the exact flow, :func:`hybrid.continuation.special.rounding_margin`, is fine)."""
     s = (bound - cur.values[p2]) / (found.values[p2] - cur.values[p2])
     if not 0.0 < s < 1.0:
         return None
@@ -379,14 +381,19 @@ def _at_the_end(reloc, cur: LocusPoint, found: LocusPoint, p1, p2, bound: float,
             end = reloc(cur, p2, float(bound), p1, guess, grow * w, t, scale[p1])
         except (_Lost, HybridError, ArithmeticError, RuntimeError, ValueError):
             return None
-        if end.status != LocateStatus.LOCATED:
+        if end.status != LocateStatus.LOCATED and not end.accuracy <= 0.01 * h * scale[p1]:
             return None
         ends.append(end)
     lo = min(e.interval[0] for e in ends)
     hi = max(e.interval[1] for e in ends)
     end = ends[0]
     acc = max(end.values[p1] - lo, hi - end.values[p1])
-    return replace(end, interval=(lo, hi), accuracy=acc)
+    status = (
+        LocateStatus.LOCATED
+        if all(e.status == LocateStatus.LOCATED for e in ends)
+        else LocateStatus.BRACKETED
+    )
+    return replace(end, interval=(lo, hi), accuracy=acc, status=status)
 
 
 # ----------------------------------------------------------------------------

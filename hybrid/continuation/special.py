@@ -39,8 +39,13 @@ says how well it is known):
   the nearest probes whose durations exceed their integration errors, estimated by rerunning each
   at tolerances :data:`hybrid.continuation.forced.TIGHTER` times tighter.
 
-A point is ``located`` when its interval's half-width is below the caller's tolerance
-(``ContinuationOptions.locate_tol`` times the range), else ``bracketed``.
+On the exact flow the intervals of mode changes, period doublings and Neimark-Sacker points are
+then widened by what rounding leaves unresolved (:func:`rounding_margin`): the computed orbits are
+right to rounding times the conditioning of the periodic-orbit problem, not exactly, and a probe
+next to the point may sit on the wrong side of it by that much.
+
+A point is ``located`` when its interval's half-width (with that margin) is below the caller's
+tolerance (``ContinuationOptions.locate_tol`` times the range), else ``bracketed``.
 """
 
 from __future__ import annotations
@@ -101,7 +106,11 @@ class SpecialPoint:
         by 1.4e-9); a mode change's includes it too. For the other smooth kinds on IDA (period
         doubling, Neimark-Sacker, branch point, and folds of autonomous orbits) it bounds the
         error of ``parameter`` as a point of the branch *as computed* only; the exact integrator
-        or a tighter ``rtol`` removes the rest.
+        or a tighter ``rtol`` removes the rest. On the exact integrator a mode change's, a period
+        doubling's and a Neimark-Sacker point's include the rounding margin
+        (:func:`rounding_margin`: ``4 eps |p|`` times the condition number of ``I - M``, 6e-13
+        to 2e-11 on the dampers' band edges); a fold's and a branch point's do not (``I - M`` is
+        singular there).
     interval : tuple of float
         Parameter values that hold the point.
     """
@@ -372,12 +381,20 @@ def _unlocated(c, a, b, kind: str, ds: float) -> _Located:
         iv = _fold_interval(c, a, (0.0, a), (ds, b), known)
         return _Located(None, "bracketed", known, iv, note)
     if kind in SMOOTH:
-        return _Located(None, "bracketed", 0.5 * (a.p + b.p), (a.p, b.p), note)
+        m = (
+            rounding_margin((a, b), 0.5 * (a.p + b.p))
+            if c.sh.integrator.exact and kind in ROUNDED_KINDS
+            else 0.0
+        )
+        return _Located(None, "bracketed", 0.5 * (a.p + b.p), (min(a.p, b.p) - m, max(a.p, b.p) + m), note)
     rule = _PhaseRule(signature(a.view()), signature(b.view()))
     w, o = ((0.0, a), (ds, b)) if rule.with_a else ((ds, b), (0.0, a))
     probes = [(w[0], w[1].p, rule.measure(w[1].view()), w[1])] if rule.measure else []
     lo, hi, why = _phase_interval(c, rule, w, o, probes)
-    return _Located(None, "bracketed", 0.5 * (lo + hi), (lo, hi), "; ".join(x for x in (note, why) if x))
+    m = rounding_margin((a, b), 0.5 * (lo + hi)) if c.sh.integrator.exact else 0.0
+    return _Located(
+        None, "bracketed", 0.5 * (lo + hi), (lo - m, hi + m), "; ".join(x for x in (note, why) if x)
+    )
 
 
 def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
@@ -389,6 +406,7 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
     samples = settings.samples_per_period
     up = kind == "fold" and _slope(c, a, a) > 0
     extreme = max((a, b), key=lambda q: q.p if up else -q.p)  # a fold's most extreme computed point
+    rounded = c.sh.integrator.exact and kind in ROUNDED_KINDS
 
     def result(status_note: str, located: bool = False) -> _Located:
         nonlocal best
@@ -401,8 +419,11 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             best = extreme
             p = extreme.p
         else:
-            iv = (q_lo.p, q_hi.p)
+            iv = (min(q_lo.p, q_hi.p), max(q_lo.p, q_hi.p))
             p = best.p if best is not None else 0.5 * (q_lo.p + q_hi.p)
+            if rounded:  # what rounding leaves unresolved on the exact flow
+                m = rounding_margin((q_lo, q_hi), p)
+                iv = (iv[0] - m, iv[1] + m)
         out = _Located(best, "bracketed", p, iv, status_note, tol=tol_p if located else None)
         return out
 
@@ -446,6 +467,10 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
                 s_lo = s_hi = s
                 q_lo = q_hi = pt
                 return result("", located=True)
+            if rounded:
+                s_lo = s_hi = s
+                q_lo = q_hi = best = pt
+                return result("", located=True)
             return _Located(pt, "located", pt.p, (pt.p, pt.p))
         if g * g_lo > 0:
             s_lo, g_lo, q_lo = s, g, pt
@@ -481,6 +506,59 @@ EXACT_PHASE_RESOLUTION = 1e-12
 #: parameter): on the absorber's bands at rtol 1e-10 the next probes, 2e-8 from the point, fail
 #: at a grazing after several Newton attempts and the bracket gains little.
 NOISY_FLOOR = 1e3
+
+#: Safety factor of :func:`rounding_margin` over ``eps |p| cond``.
+EXACT_ROUNDING_SAFETY = 4.0
+
+#: The rounding margin, relative to ``|p|``, where no orbit next to the point gives a finite
+#: condition number (e.g. an autonomous orbit, or a family without a gauge).
+EXACT_ROUNDING_FALLBACK = 1e-12
+
+#: The kinds whose intervals on the exact flow get :func:`rounding_margin` (at a fold or a branch
+#: point ``I - M`` is singular: their condition number says nothing of the augmented problem).
+ROUNDED_KINDS = (
+    "period-doubling",
+    "neimark-sacker",
+    "mode-gained",
+    "mode-lost",
+    "grazing",
+    "sequence-change",
+)
+
+
+def rounding_margin(pts, p: float) -> float:
+    """How far [parameter units] rounding may move a point at ``p`` located on the exact flow from
+    the orbits ``pts`` next to it (the two ends of the last bracket): ``eps |p|`` (the parameter's
+    rounding scale) times the largest condition number of ``I - M`` on their section states
+    (:attr:`hybrid.PeriodicOrbit.condition`), times :data:`EXACT_ROUNDING_SAFETY`;
+    :data:`EXACT_ROUNDING_FALLBACK` ``|p|`` where none of them gives a finite one.
+
+    The exact flow's switch times are right to rounding, but each orbit is the fixed point of the
+    computed map, right only to rounding times the conditioning of ``I - M``: the orbit computed at
+    ``p`` is the true one at ``p + delta``, and a probe next to a mode change may show the phase on
+    the wrong side of it (the probes' durations then extrapolate consistently to the shifted zero,
+    so no extrapolation bound covers it). Measured against ``band_edges`` (right to 5e-16, checked
+    with mpmath) on the dampers' band edges, exact integrator, before this margin: 5 of the 182
+    points of the four plane loci missed the closed form by 2.8e-14 to 1.07e-13 (absolute;
+    ``p`` 0.85 to 1.17); in 265 relocations of 68 of these points (windows of 1e-7 to 1e-4 around
+    it, the loci's tolerance 1e-12) 13 located ones missed it by 1.8e-14 to 5.3e-13, at most 0.94
+    ``eps |p| cond`` (cond 800 to 19000 there, ``eps |p| cond`` 1.5e-13 to 4e-12; the next largest
+    0.17). The safety factor is four times the largest. (One bracketed point there, the
+    isolator's at R = 3 on a window of 1e-7, missed by 2.8e-10: not rounding, not covered.)
+    """
+    eps = float(np.finfo(float).eps)
+    cond = 0.0
+    for pt in pts:
+        try:  # (a probe's orbit is made on first use)
+            k = getattr(getattr(pt, "orbit", None), "condition", math.nan)
+        except Exception:  # noqa: BLE001 - no orbit: no condition number
+            k = math.nan
+        if k is None or not math.isfinite(k):
+            return EXACT_ROUNDING_FALLBACK * abs(p)
+        cond = max(cond, float(k))
+    if not cond > 0:
+        return EXACT_ROUNDING_FALLBACK * abs(p)
+    return EXACT_ROUNDING_SAFETY * eps * abs(p) * max(cond, 1.0)
 
 
 class _PhaseRule:
@@ -646,7 +724,9 @@ def fold_integration_error(c, pt) -> float:
         if not den > 0:
             return math.inf
         return RERUN_SAFETY * abs(float(psi @ delta)) / den
-    except Exception:  # noqa: BLE001 - any failure of the estimate: say it is unknown
+    except (ArithmeticError, ValueError, RuntimeError, np.linalg.LinAlgError):
+        # a failure of the estimate's runs or algebra: say it is unknown (a budget or a defect
+        # of the code is not caught)
         return math.inf
 
 
@@ -708,7 +788,9 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     """Bisection of the change of signature between ``a`` and ``b``, each probe aimed at either side
     of the zero of the vanishing phase's duration extrapolated from the probes that have it (its
     power law estimated from the last three); the interval from :func:`_phase_interval`, and the
-    search ends when its half-width is below the tolerance.
+    search ends when its half-width is below the tolerance. On the exact flow the interval is then
+    widened by :func:`rounding_margin` of the bracket's two ends, and the point is ``located`` only
+    if the widened half-width is within the tolerance.
 
     A phase that disappears at a grazing of a smooth guard shrinks like the square root of the
     distance to the point, one that ends at a transversal one (a stick phase that a breakaway
@@ -817,4 +899,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
         point = w[1]  # the probe nearest the point with the phase (both sides meet there)
     if point is a:
         point = b
-    return _Located(point, "bracketed", 0.5 * (lo + hi), (lo, hi), note or why, tol=tol_p)
+    # on the exact flow, widened by what rounding leaves unresolved (the bracket is narrowed as
+    # before: the margin of the step's ends, farther from the point, may be much larger)
+    m = rounding_margin((w[1], o[1]), 0.5 * (lo + hi)) if exact else 0.0
+    return _Located(point, "bracketed", 0.5 * (lo + hi), (lo - m, hi + m), note or why, tol=tol_p)

@@ -92,6 +92,40 @@ def test_locus_of_the_absorbers_band_edge_in_R_against_the_closed_form():
         continue_locus(br, k, "Omega", (0.5, 0.6))
 
 
+@pytest.mark.parametrize(
+    "model, R, centre, half",
+    [
+        # windows of the plane loci's relocations where the intervals without the rounding margin
+        # missed band_edges: by 9.7e-14 (absorber, upper edge of band 2) and by 5.3e-13 (isolator,
+        # lower edge of band 2: its probes showed the slip phase 5.2e-13 below the true edge)
+        ("absorber", 0.4381964442223619, 1.1726158689115742, 1e-5),
+        ("isolator", 1.605, 1.1690034724044351, 1e-7),
+    ],
+)
+def test_band_edge_interval_on_the_exact_flow_holds_the_closed_form_with_its_rounding_margin(
+    model, R, centre, half
+):
+    from hybrid.continuation.special import EXACT_ROUNDING_SAFETY
+    from hybrid_models.studies import study_params
+
+    system = hybrid_models.BUILTIN[model]()
+    p = {**study_params(model), "R": R}
+    # the tolerance of a locus's relocation (1e-12 in Omega), as continue_locus sets it
+    settings = hybrid.ContinuationOptions(locate_tol=1e-12 / (2 * half))
+    br = continue_orbits(system, p, "Omega", (centre - half, centre + half), options=EXACT, settings=settings)
+    lo, hi = band_edges(model, p, 1.08, 1.26)
+    ref = lo if abs(centre - lo) < abs(centre - hi) else hi
+    sps = [s for s in br.special if s.kind in ("mode-gained", "mode-lost")]
+    sp = min(sps, key=lambda s: abs(s.parameter - ref))
+    assert abs(sp.parameter - ref) <= 1e-12
+    assert sp.interval[0] <= ref <= sp.interval[1]
+    # the margin is there: at least eps |p| cond of the orbit at the point on either side
+    cond = br.points[sp.index].condition
+    assert sp.accuracy >= 0.5 * EXACT_ROUNDING_SAFETY * np.finfo(float).eps * abs(sp.parameter) * cond
+    # and the status follows from the widened interval (1e-12 is the tolerance)
+    assert (sp.status == "located") == (sp.accuracy <= 1e-12)
+
+
 def test_autonomous_hopf_locus_of_the_stribeck_belt_against_the_closed_form():
     import math
 

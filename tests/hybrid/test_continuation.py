@@ -427,7 +427,9 @@ def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
     """The mode changes bounding each stick-slip band of the absorber (exact integrator) are where
     the centred stick orbit's friction force reaches R: the closed-form crossings of the stick
     response with A_L. Located to 1e-10 and within the accuracy reported (before the secant ran on
-    the squared fraction, two of the four were off by 2e-9 and 2e-8 while reporting 1e-11)."""
+    the squared fraction, two of the four were off by 2e-9 and 2e-8 while reporting 1e-11). The
+    accuracy includes the exact flow's rounding margin (about 2e-12 here), which is above the
+    tolerance (1e-10 of the window, 6e-13 to 9e-13): such a point is ``bracketed`` to 1e-11."""
     import hybrid_models
     from hybrid import SolverOptions
 
@@ -439,9 +441,11 @@ def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
     changes = [s for s in br.special if s.kind in ("mode-gained", "mode-lost")]
     assert len(changes) == 2, [(s.kind, s.parameter) for s in br.special]
     for s, ref in zip(sorted(changes, key=lambda s: s.parameter), refs, strict=True):
-        assert s.status == "located", s
+        assert s.status in ("located", "bracketed"), s
+        assert s.accuracy <= 1e-11, s
         assert abs(s.parameter - ref) <= 1e-10, (s.kind, s.parameter, ref)
         assert abs(s.parameter - ref) <= s.accuracy + 1e-12, (s.kind, s.parameter, ref, s.accuracy)
+        assert s.interval[0] <= ref <= s.interval[1], (s.kind, s.interval, ref)
 
 
 @pytest.mark.slow
@@ -489,7 +493,10 @@ def test_frc_cli_locates_the_isolators_band_edges_on_the_branch_not_on_a_grazing
     refs = _slip_boundaries(p, 0.85, 0.86, "isolator") + _slip_boundaries(p, 1.166, 1.175, "isolator")
     assert len(changes) == 4, [(w, r["kind"]) for w, r in changes]
     for (w, r), ref in zip(changes, refs, strict=True):
-        assert r["status"] == "located"
+        # (bracketed where the exact flow's rounding margin, 2e-12 to 1e-11 here, exceeds the
+        # tolerance)
+        assert r["status"] in ("located", "bracketed")
+        assert float(r["accuracy"]) <= 1e-10, r
         assert abs(w - ref) <= 1e-10, (r["kind"], w, ref)
         a_l = float(limit_amplitude("isolator", p, ref))
         assert abs(float(r["amplitude_x1"]) - a_l) <= 1e-6 * a_l, (r["kind"], r["amplitude_x1"], a_l)
