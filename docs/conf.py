@@ -26,16 +26,13 @@ extensions = [
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 root_doc = "index"
-# bifurcation.md and networks.md (issues 23 and 22) show figures their benchmarks write
-# (docs/bifurcation/*.png, docs/networks/scaling.png), which are not committed (.gitignore): they stay
-# Markdown pages of the repository until their figures are; the site would build them without images.
 exclude_patterns = [
     "_build",
     "selfexcited/**",
     "sweeps/**",
     "reproduction/*.json",
-    "bifurcation.md",
-    "networks.md",
+    "bifurcation/*.json",
+    "networks/*.json",
 ]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
