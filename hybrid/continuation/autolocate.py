@@ -26,7 +26,7 @@ import numpy as np
 from ..core.errors import GrazingSwitchError, SimulationError
 from ..core.status import LocateStatus
 from ..orbits.flowmap import FlowMap
-from ..orbits.orbit import mode_fractions
+from ..orbits.orbit import local_fractions, mode_fractions
 from .palc import correct_point, tangent
 from .special import SpecialPoint, interval_fields, phases, power_bounds, thin
 
@@ -53,9 +53,11 @@ class AutoPoint:
 class _Summary:
     """Events and mode fractions of a run (what a phase's duration is read from)."""
 
-    def __init__(self, tr, period: float):
+    def __init__(self, tr, period: float, system):
         self.trajectory = tr
+        self.system = system
         self.mode_fractions = mode_fractions(tr, period)
+        self.local_fractions = local_fractions(system, self.mode_fractions)
 
 
 class Locator:

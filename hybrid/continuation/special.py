@@ -186,6 +186,13 @@ def _fractions(o) -> dict:
     return o.local_fractions if o.system.components else o.mode_fractions
 
 
+def _order_text(sig: tuple) -> str:
+    """A signature's cyclic order as text (for a system with components, each part's, joined by ``;``)."""
+    if sig[2] and isinstance(sig[2][0], tuple):
+        return "; ".join(" ".join(part) for part in sig[2])
+    return " ".join(sig[2])
+
+
 def _orders(sa: tuple, sb: tuple) -> str:
     """The cyclic orders of two signatures, where they differ (for a system with components, the
     parts whose order changes)."""
@@ -416,8 +423,14 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             e = fold_integration_error(c, extreme)
             if e > 0:
                 iv = (iv[0] - e, iv[1] + e)
-            best = extreme
-            p = extreme.p
+            # the orbit reported is the regula falsi's last probe, whose arclength has settled (on a
+            # noisy map the most extreme parameter computed may lie far along the branch, p being
+            # flat there: the Duffing oscillator's upper fold on IDA at rtol 1e-9, 3.8e-4 off in the
+            # state against 6e-9 for the last probe); the interval is widened to hold it
+            if best is None:
+                best = extreme
+            iv = (min(iv[0], best.p), max(iv[1], best.p))
+            p = best.p
         else:
             iv = (min(q_lo.p, q_hi.p), max(q_lo.p, q_hi.p))
             p = best.p if best is not None else 0.5 * (q_lo.p + q_hi.p)
@@ -823,7 +836,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
             # family), whose own mode change lies elsewhere (isolator: 3.7e-4 away).
             return None, (
                 f"at {pt.p:.10g} the corrector converged to an orbit with other modes than either side "
-                f"of the change ({' '.join(signature(pt.view())[2])}): another solution nearby, not the branch's"
+                f"of the change ({_order_text(signature(pt.view()))}): another solution nearby, not the branch's"
             )
         return (pt, side), ""
 
