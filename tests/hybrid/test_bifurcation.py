@@ -45,6 +45,7 @@ def test_special_branch_point_of_shaws_oscillator_holds_the_half_maps_closed_for
             assert abs(float(np.max(np.abs(o.floquet_multipliers))) - d * d) <= 1e-8
 
 
+@pytest.mark.slow
 def test_switch_at_shaws_branch_point_gives_the_two_asymmetric_orbits(shaw_branch):
     k = _branch_point(shaw_branch)
     W = shaw_branch.special[k].parameter
@@ -71,6 +72,7 @@ def test_switch_refuses_a_point_that_is_not_switchable(shaw_branch):
         switch_branch(br, k, (0.48, 0.52), options=EXACT)
 
 
+@pytest.mark.slow
 def test_locus_of_the_absorbers_band_edge_in_R_against_the_closed_form():
     ab = hybrid_models.absorber()
     pa = ab.preset("standard")
@@ -126,6 +128,7 @@ def test_band_edge_interval_on_the_exact_flow_holds_the_closed_form_with_its_rou
     assert (sp.status == "located") == (sp.accuracy <= 1e-12)
 
 
+@pytest.mark.slow
 def test_autonomous_hopf_locus_of_the_stribeck_belt_against_the_closed_form():
     import math
 
@@ -159,6 +162,7 @@ def test_cli_cont_takes_x0_and_mode0(tmp_path, capsys):
     assert "unknown variable" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_locus_lists_and_follows_shaws_branch_point(tmp_path, capsys):
     base = [
         "locus", "friction_oscillator", "--preset", "shaw", "--param", "Omega", "--range", "0.44", "0.48",

@@ -242,6 +242,7 @@ def test_the_sparse_taylor_path_equals_the_dense_eigen_path(monkeypatch):
     np.testing.assert_allclose(sparse.y_final, dense.y_final, rtol=0, atol=1e-11)
 
 
+@pytest.mark.slow
 def test_energy_balance_of_a_large_chain():
     """Work of the forces = energy dissipated by the dampers and the contacts + change of the
     mechanical energy, summed from the samples of a run of 64 blocks (sparse path)."""

@@ -257,6 +257,7 @@ def test_interrupted_frc_keeps_the_rows_written(tmp_path, capsys, monkeypatch):
     assert len({r["Omega"] for r in rows}) == len(rows)
 
 
+@pytest.mark.slow
 def test_frc_cli_writes_every_row_once(tmp_path, capsys):
     code = main(
         [
@@ -380,6 +381,7 @@ def test_a_family_without_a_gauge_is_followed_without_wandering(tmp_path):
     assert len(points) < 60
 
 
+@pytest.mark.slow
 def test_leaving_a_band_lands_on_the_gauge_member_not_on_a_grazing_one():
     """Past the absorber's first stick-slip band the symmetric orbit loses both slip phases at once;
     rounding lets one go first and the corrector may land on a boundary member of the neutral

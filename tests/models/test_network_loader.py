@@ -528,6 +528,7 @@ def spliced_texts(draw) -> str:
     return text
 
 
+@pytest.mark.slow
 @settings(FUZZ, max_examples=200)
 @given(spliced_texts())
 def test_fuzz_network_files_as_text_give_a_model_or_a_clean_error(text):
