@@ -663,7 +663,7 @@ def test_the_message_of_a_loose_option_is_the_call_that_works(coulomb):
         "ShootingOptions": ShootingOptions,
         "NewtonOptions": NewtonOptions,
     }
-    kwargs = eval(f"dict({fix})", namespace)  # noqa: S307 - the message's own text, built by the library
+    kwargs = _build_call(f"dict({fix})", namespace)
     assert kwargs["options"] == SolverOptions(rtol=1e-9, integrator="exact")
     assert kwargs["settings"].newton.max_iter == 7
 
@@ -827,3 +827,17 @@ def test_sweep_result_repr(coulomb, tmp_path):
     axis = hybrid.linear_axis("F", 0.5, 0.5, 0.1)
     res = hybrid.sweep(system, p, [axis], tmp_path, p_range=(0.8, 0.82), options=EXACT)
     assert _short(repr(res)) == f"SweepResult(coulomb over F (1) in {str(tmp_path)!r}: 1 bounded)"
+
+
+def _build_call(text: str, classes: dict):
+    """The value of ``text``, calls of ``classes`` (and ``dict``) with literal or nested-call
+    keyword arguments only: the message's fix rebuilt without evaluating text."""
+    import ast
+
+    def value(node):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.args:
+            kw = {k.arg: value(k.value) for k in node.keywords}
+            return dict(**kw) if node.func.id == "dict" else classes[node.func.id](**kw)
+        return ast.literal_eval(node)
+
+    return value(ast.parse(text, mode="eval").body)
