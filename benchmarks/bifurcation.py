@@ -41,7 +41,15 @@ from matplotlib.figure import Figure
 
 import hybrid
 import hybrid_models
-from hybrid import ContinuationOptions, SolverOptions, continue_locus, continue_orbits, switch_branch
+from hybrid import (
+    IDA,
+    ContinuationOptions,
+    Exact,
+    SolverOptions,
+    continue_locus,
+    continue_orbits,
+    switch_branch,
+)
 from hybrid.continuation.autonomous import AUTONOMOUS_CONTINUATION
 from hybrid_models.classics import (
     belt_grazing_speed,
@@ -56,8 +64,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "hybrid"))
 import orbit_problems as op  # noqa: E402  (the Duffing references of the test suite)
 
-EXACT = SolverOptions(integrator="exact")
-IDA = SolverOptions(integrator="ida", rtol=1e-10, atol=1e-12)
+EXACT = SolverOptions(method=Exact())
+IDA = SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))
 OPTIONS = {"exact": EXACT, "ida": IDA}
 
 

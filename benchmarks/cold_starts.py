@@ -81,7 +81,7 @@ def cold_start(system, params, max_time: float) -> dict:
     }
 
 
-TIGHT = hybrid.SolverOptions(rtol=1e-12, atol=1e-14)
+TIGHT = hybrid.SolverOptions(method=hybrid.IDA(rtol=1e-12, atol=1e-14))
 
 
 def state_at(orbit, t: float) -> np.ndarray:
@@ -132,7 +132,7 @@ def edges(name: str, n_points: int, max_time: float) -> None:
                 row = cold_start(system, {**params, "Omega": om}, max_time)
                 o = row.pop("orbit")
                 diff = difference(o, ref) if o.converged else float("nan")
-                bound = max(1e-6, 10 * max(o.condition, ref.condition) * hybrid.ORBIT_OPTIONS.rtol)
+                bound = max(1e-6, 10 * max(o.condition, ref.condition) * hybrid.ORBIT_OPTIONS.method.rtol)
                 row["found"] = row["found"] and o.stability == "stable" and diff <= bound
                 out.append(row)
                 print(

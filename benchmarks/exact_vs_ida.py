@@ -24,7 +24,7 @@ import numpy as np
 
 import hybrid
 import hybrid_models as models
-from hybrid import SolverOptions, continue_orbits, periodic_orbit
+from hybrid import IDA, Exact, SolverOptions, continue_orbits, periodic_orbit
 from hybrid.continuation.frc import _cuts, default_range
 from hybrid.model.linear import natural_frequencies
 
@@ -34,7 +34,7 @@ def compare(system, rtol: float) -> None:
     lo, hi = default_range(system, p)
     a, b, _ = _cuts(lo, hi, natural_frequencies(system, p))[0]
     t = time.process_time()
-    br = continue_orbits(system, p, "Omega", (a, b), options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", (a, b), options=SolverOptions(method=Exact()))
     t_exact = time.process_time() - t
     worst = {"amplitude": (0.0, None), "switch": (0.0, None), "multiplier": (0.0, None)}
     worst_ratio = (0.0, None)  # amplitude difference over the IDA orbit's own bound cond(I - M) rtol
@@ -49,7 +49,7 @@ def compare(system, rtol: float) -> None:
             o.x0,
             o.mode0,
             t0=o.t0,
-            options=SolverOptions(rtol=rtol, atol=rtol / 100),
+            options=SolverOptions(method=IDA(rtol=rtol, atol=rtol / 100)),
             settings=hybrid.ShootingOptions(transient_periods=0),
         )
         if not q.converged:

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid
-from hybrid import SolverOptions, Status, periodic_orbit, simulate
+from hybrid import IDA, Exact, SolverOptions, Status, method_named, periodic_orbit, simulate
 from hybrid_models.coulomb_exact import den_hartog
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,8 +127,8 @@ def belt_study(options, label):
             f"switch times {dt:.2g} s, states {dx:.2g}; stick vs closed form: exit times {d_exit:.2g} s, "
             f"x inside {d_x:.2g} m"
         )
-        if options.integrator == "ida":  # each IDA run against the exact flow of the same model
-            ex = SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
+        if not options.method.flows_exact:  # each IDA run against the exact flow of the same model
+            ex = SolverOptions(method=Exact())
             ra = simulate(a, p, (0.0, 200.0), {"x": 0.0, "v": 0.0}, mode0="slip-", options=ex)
             rb = simulate(b, p, (0.0, 200.0), {"x": 0.0, "v": 0.0}, options=ex)
             da = max(abs(x.t - y.t) for x, y in zip(ta.events, ra.events, strict=True))
@@ -140,10 +140,16 @@ def main() -> None:
     print(f"uptime: {os.popen('uptime').read().strip()}")
     print(f"Coulomb oscillator, Omega in {OMEGAS}, R/F in {RATIOS} (m = k = 1, F = 0.5):")
     for integ in ("exact", "ida"):
-        coulomb_study(SolverOptions(rtol=1e-10, atol=1e-12, integrator=integ), integ)
+        coulomb_study(
+            SolverOptions(method=(IDA(rtol=1e-10, atol=1e-12) if integ == "ida" else method_named(integ))),
+            integ,
+        )
     print("Belt (200 s from rest):")
     for integ in ("exact", "ida"):
-        belt_study(SolverOptions(rtol=1e-10, atol=1e-12, integrator=integ), integ)
+        belt_study(
+            SolverOptions(method=(IDA(rtol=1e-10, atol=1e-12) if integ == "ida" else method_named(integ))),
+            integ,
+        )
     print(f"uptime: {os.popen('uptime').read().strip()}")
 
 

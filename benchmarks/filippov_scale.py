@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 import hybrid
-from hybrid import Mode, SolverOptions, Variable, filippov_system, simulate
+from hybrid import Exact, Mode, SolverOptions, Variable, filippov_system, simulate
 from hybrid.model.compiled import CompiledSystem
 
 HERE = Path(__file__).resolve().parent
@@ -39,7 +39,7 @@ ENTRY_SIZES = (10, 30, 100, 300)
 RUN_SIZES = (10, 100)
 REPEAT = 3
 SPAN = 5.0
-EXACT = SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
+EXACT = SolverOptions(method=Exact())
 
 
 def sign_chain(n: int) -> hybrid.HybridSystem:

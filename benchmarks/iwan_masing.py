@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit, system_from_dict
+from hybrid import Exact, SolverOptions, periodic_orbit, system_from_dict
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "networks" / "iwan_masing.json"
 
@@ -42,7 +42,7 @@ def main(n: int = 50) -> dict:
     p = system.preset("standard")
     print(f"Iwan joint of {n} Jenkins elements: {len(system.variables)} variables, built in {built:.2f} s")
     start = time.perf_counter()
-    orbit = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))
+    orbit = periodic_orbit(system, p, options=SolverOptions(method=Exact()))
     wall = time.perf_counter() - start
     print(orbit)
     if not orbit.converged:

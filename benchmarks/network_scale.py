@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, simulate, system_from_dict
+from hybrid import Exact, SolverOptions, simulate, system_from_dict
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "networks" / "network_scale.json"
 REFERENCE = Path("/work/scratch/siconos/results")
@@ -71,7 +71,7 @@ def main() -> dict:
         zero = dict.fromkeys(system.variable_names, 0.0)
         start = time.perf_counter()
         tr = simulate(
-            system, system.preset("standard"), (0.0, 50.0), zero, options=SolverOptions(integrator="exact")
+            system, system.preset("standard"), (0.0, 50.0), zero, options=SolverOptions(method=Exact())
         )
         wall = time.perf_counter() - start
         row = {

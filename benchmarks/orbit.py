@@ -48,13 +48,13 @@ import numpy as np
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit, simulate
+from hybrid import IDA, Exact, SolverOptions, periodic_orbit, simulate
 from hybrid_models.karnopp import shoot_karnopp
 
 STATE = ["x1", "v1", "x2", "v2", "u"]
 OMEGAS = np.round(np.arange(0.8555, 0.85389, -1e-4), 6)
 ENGINE_RTOLS = (1e-10, 1e-11, 3e-12)
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 
 
 def mult_error(mu, ref):
@@ -77,7 +77,7 @@ def main() -> None:
     # Engine chains (the first orbit of each chain from `first`, not timed as a neighbour).
     chains = {}
     for rtol in ENGINE_RTOLS:
-        opts = SolverOptions(rtol=rtol, atol=rtol * 1e-2)
+        opts = SolverOptions(method=IDA(rtol=rtol, atol=rtol * 1e-2))
         prev, times, orbits = first, [], []
         for p in params:
             c = time.process_time()
@@ -188,16 +188,16 @@ def branch() -> None:
     names = absorber.variable_names
     idx = [names.index(n) for n in STATE]
     base = absorber.preset("standard")
-    tight = SolverOptions(rtol=1e-12, atol=1e-14)
+    tight = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
     methods = {
-        "engine, IDA rtol 1e-10": (SolverOptions(rtol=1e-10, atol=1e-12), 512),
-        "engine, IDA rtol 1e-10, 16 samples": (SolverOptions(rtol=1e-10, atol=1e-12), 16),
-        "engine, IDA rtol 1e-11": (SolverOptions(rtol=1e-11, atol=1e-13), 512),
-        "engine, IDA rtol 3e-12": (SolverOptions(rtol=3e-12, atol=3e-14), 512),
-        "engine, IDA rtol 3e-12, 16 samples": (SolverOptions(rtol=3e-12, atol=3e-14), 16),
-        "engine, IDA rtol 1e-12": (SolverOptions(rtol=1e-12, atol=1e-14), 512),
-        "engine, exact": (SolverOptions(integrator="exact"), 512),
-        "engine, exact, 16 samples": (SolverOptions(integrator="exact"), 16),
+        "engine, IDA rtol 1e-10": (SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)), 512),
+        "engine, IDA rtol 1e-10, 16 samples": (SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)), 16),
+        "engine, IDA rtol 1e-11": (SolverOptions(method=IDA(rtol=1e-11, atol=1e-13)), 512),
+        "engine, IDA rtol 3e-12": (SolverOptions(method=IDA(rtol=3e-12, atol=3e-14)), 512),
+        "engine, IDA rtol 3e-12, 16 samples": (SolverOptions(method=IDA(rtol=3e-12, atol=3e-14)), 16),
+        "engine, IDA rtol 1e-12": (SolverOptions(method=IDA(rtol=1e-12, atol=1e-14)), 512),
+        "engine, exact": (SolverOptions(method=Exact()), 512),
+        "engine, exact, 16 samples": (SolverOptions(method=Exact()), 16),
     }
     p0 = {**base, "Omega": float(BRANCH[0])}
     start = periodic_orbit(

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, simulate, system_from_dict
+from hybrid import Exact, SolverOptions, simulate, system_from_dict
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE.parent / "docs" / "networks" / "peer_siconos.json"
@@ -92,7 +92,7 @@ def ours(n: int) -> dict:
     system = system_from_dict(chain(n))
     zero = dict.fromkeys(system.variable_names, 0.0)
     tr = simulate(
-        system, system.preset("standard"), (0.0, T_END), zero, options=SolverOptions(integrator="exact")
+        system, system.preset("standard"), (0.0, T_END), zero, options=SolverOptions(method=Exact())
     )
     wall = time.perf_counter() - start
     x = np.array([tr.final(f"x_{i}") for i in range(1, n + 1)])

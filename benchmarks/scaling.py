@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, simulate, system_from_dict
+from hybrid import SolverOptions, method_named, simulate, system_from_dict
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "networks"
 T_END = 50.0
@@ -50,7 +50,7 @@ def load() -> float:
 
 
 def measure(n: int, integrator: str) -> dict:
-    options = SolverOptions(integrator=integrator)
+    options = SolverOptions(method=method_named(integrator))
     start, cpu = time.perf_counter(), time.process_time()
     system = system_from_dict(chain(n))
     params = system.preset("standard")

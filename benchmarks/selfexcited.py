@@ -28,14 +28,14 @@ from matplotlib.figure import Figure
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, simulate
+from hybrid import IDA, SolverOptions, method_named, simulate
 from hybrid.continuation.autonomous import AUTONOMOUS_CONTINUATION, hopf_branch, orbit_branch
 from hybrid.points.autonomous import autonomous_orbit
 from hybrid.points.equilibria import locate_hopf
 
 #: Tolerances of the Stribeck and damper branches: at rtol 1e-10 the trivial multiplier of the
 #: smooth cycles is off by up to 7e-8 (the variational runs' error), at 1e-12 by about 1e-9.
-BRANCH_OPTIONS = SolverOptions(rtol=1e-12, atol=1e-14)
+BRANCH_OPTIONS = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 #: Continuation settings of the branches: orbits periodic to 1e-11.
 SETTINGS = replace(
     AUTONOMOUS_CONTINUATION, ds=0.04, ds_max=0.12, newton=hybrid.NewtonOptions(tol=1e-11, max_iter=8)
@@ -68,7 +68,9 @@ def coulomb(out: Path) -> dict:
             o = autonomous_orbit(
                 belt,
                 {**p, "v_b": float(v_b)},
-                options=SolverOptions(rtol=1e-10, atol=1e-12, integrator=integ),
+                options=SolverOptions(
+                    method=(IDA(rtol=1e-10, atol=1e-12) if integ == "ida" else method_named(integ))
+                ),
                 settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12)),
             )
             row[f"period_{integ}"] = o.period
@@ -146,7 +148,7 @@ def stribeck(out: Path) -> tuple[dict, list]:
         (0.0, 400.0),
         {"x": x_star + 1e-3, "w": -p["v_b"]},
         mode0="slip-",
-        options=SolverOptions(rtol=1e-10, atol=1e-12),
+        options=SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)),
         t_eval=np.linspace(0, 400, 40001),
     )
     hits = [e for e in tr.events if e.guard == "breakaway-"]

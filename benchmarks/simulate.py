@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, simulate
+from hybrid import IDA, SolverOptions, simulate
 from hybrid_models.karnopp import simulate_karnopp
 
 PERIODS = 50
@@ -42,7 +42,13 @@ def main() -> None:
     x0 = dict(zip(("x1", "v1", "x2", "v2", "u"), y0, strict=True))
 
     ref = simulate(
-        system, p, (0, t_end), x0, "stick", t_eval=[t_end], options=SolverOptions(rtol=1e-12, atol=1e-14)
+        system,
+        p,
+        (0, t_end),
+        x0,
+        "stick",
+        t_eval=[t_end],
+        options=SolverOptions(method=IDA(rtol=1e-12, atol=1e-14)),
     )
     y_ref = ref.y_final[:5]
 
@@ -59,7 +65,7 @@ def main() -> None:
                 x0,
                 "stick",
                 t_eval=[t_end],
-                options=SolverOptions(rtol=rtol, atol=rtol * 1e-2),
+                options=SolverOptions(method=IDA(rtol=rtol, atol=rtol * 1e-2)),
             )
         )
         rows.append(

@@ -40,7 +40,7 @@ def run(executor, axes, folder, p_range) -> tuple[float, hybrid.SweepResult]:
         axes,
         folder,
         p_range=p_range,
-        options=hybrid.SolverOptions(integrator="exact"),
+        options=hybrid.SolverOptions(method=hybrid.Exact()),
         executor=executor,
     )
     return time.perf_counter() - t0, res

@@ -10,7 +10,7 @@ the relative velocity, the displacements with the stick phases shaded, the multi
 from pathlib import Path
 
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit
+from hybrid import Exact, SolverOptions, periodic_orbit
 from hybrid.plot.trajectory import plot_orbit
 
 out = Path("out") / "examples" / "absorber_orbit"
@@ -18,7 +18,7 @@ out.mkdir(parents=True, exist_ok=True)
 
 absorber = hybrid_models.absorber()
 params = absorber.preset("standard", Omega=0.854)  # rad/s
-orbit = periodic_orbit(absorber, params, options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"))
+orbit = periodic_orbit(absorber, params, options=SolverOptions(method=Exact()))
 print(orbit)
 print("stability:", orbit.stability, "| multipliers:", [f"{abs(m):.6f}" for m in orbit.multipliers])
 print("modes over one period:", " -> ".join(orbit.mode_sequence))

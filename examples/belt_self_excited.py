@@ -9,11 +9,11 @@ half-cycle of the undamped oscillator.
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit
+from hybrid import Exact, SolverOptions, periodic_orbit
 
 belt = hybrid_models.belt()
 params = belt.preset(belt.presets and next(iter(belt.presets)))
-orbit = periodic_orbit(belt, params, options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"))
+orbit = periodic_orbit(belt, params, options=SolverOptions(method=Exact()))
 print(orbit)
 print(f"period {orbit.period:.6f} s, multipliers {[f'{abs(m):.4f}' for m in orbit.multipliers]}")
 assert orbit.converged

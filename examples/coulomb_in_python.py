@@ -11,7 +11,7 @@ out to keep the example short; ``models/coulomb.toml`` has them).
 
 import numpy as np
 
-from hybrid import HybridSystem, Mode, SolverOptions, Transition, simulate
+from hybrid import IDA, HybridSystem, Mode, SolverOptions, Transition, simulate
 
 coulomb = HybridSystem(
     name="coulomb_free",
@@ -36,7 +36,7 @@ tr = simulate(
     (0.0, 3.5 * np.pi),
     {"x": x0, "v": 0.0},
     "left",
-    options=SolverOptions(rtol=1e-10, atol=1e-12),
+    options=SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)),
 )
 print(tr)
 turns = [ev for ev in tr.events if ev.guard in ("turn+", "turn-")]

@@ -10,7 +10,7 @@ with the linear references (contact stuck, contact sliding) of the engine's line
 from pathlib import Path
 
 import hybrid
-from hybrid import SolverOptions
+from hybrid import Exact, SolverOptions
 from hybrid.plot.frc import plot_frc
 
 out = Path("out") / "examples" / "tmd_frequency_response"
@@ -19,9 +19,7 @@ out.mkdir(parents=True, exist_ok=True)
 tmd = hybrid.load_system(Path(__file__).with_name("tmd.toml"))
 params = tmd.preset("standard")
 lo, hi = hybrid.continuation.frc.default_range(tmd, params)  # rad/s
-fr = hybrid.frequency_response(
-    tmd, params, (lo, hi), options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
-)
+fr = hybrid.frequency_response(tmd, params, (lo, hi), options=SolverOptions(method=Exact()))
 print(fr)
 for row in fr.special_rows:
     print(f"  {row['kind']:12s} at Omega = {row['Omega']:.6f} rad/s ({row['status']})")

@@ -9,7 +9,7 @@ the peak per R and the best R of the grid, and draws the design chart.
 from pathlib import Path
 
 import hybrid
-from hybrid import SolverOptions, linear_axis
+from hybrid import Exact, SolverOptions, linear_axis
 from hybrid.plot.chart import write_charts
 
 out = Path("out") / "examples" / "tmd_sweep"
@@ -22,7 +22,7 @@ res = hybrid.sweep(
     out,
     p_range=(52.0, 60.0),  # rad/s: around the peak of x1
     coordinate="x1",
-    options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"),
+    options=SolverOptions(method=Exact()),
     resume=(out / "manifest.json").exists(),
 )
 for _, point in sorted(res.points.items()):

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid
-from hybrid import SolverOptions
+from hybrid import IDA, Exact, SolverOptions
 from hybrid.plot.trajectory import plot_orbit
 
 out = Path("out") / "examples" / "two_harmonics"
@@ -21,8 +21,8 @@ out.mkdir(parents=True, exist_ok=True)
 tmd = hybrid.load_system(Path(__file__).with_name("tmd_harmonics.toml"))
 params = tmd.preset("standard", Omega=55.0)
 print("force:", tmd.definitions["F_exc"], "| period:", tmd.period)
-exact = hybrid.periodic_orbit(tmd, params, options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"))
-ida = hybrid.periodic_orbit(tmd, params, options=SolverOptions(rtol=1e-12, atol=1e-14))
+exact = hybrid.periodic_orbit(tmd, params, options=SolverOptions(method=Exact()))
+ida = hybrid.periodic_orbit(tmd, params, options=SolverOptions(method=IDA(rtol=1e-12, atol=1e-14)))
 print("exact:", exact)
 print("IDA:  ", ida)
 scale = max(exact.amplitude[x] for x in ("x1", "x2"))
@@ -36,7 +36,7 @@ run = hybrid.simulate(
     params,
     (0.0, exact.t0 + 300 * T),
     {"x1": 0.0, "v_x1": 0.0, "x2": 0.0, "v_x2": 0.0},
-    options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"),
+    options=SolverOptions(method=Exact()),
     samples_per_period=4,
 )
 names = list(tmd.variable_names)

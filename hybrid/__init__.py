@@ -41,7 +41,6 @@ from .core.errors import WorkerError as WorkerError
 from .core.options import ContinuationOptions as ContinuationOptions
 from .core.options import NewtonOptions as NewtonOptions
 from .core.options import ShootingOptions as ShootingOptions
-from .core.options import SolverOptions as SolverOptions
 from .core.progress import ProgressBar as ProgressBar
 from .core.status import SPECIAL_KINDS as SPECIAL_KINDS
 from .core.status import BranchStatus as BranchStatus
@@ -60,6 +59,11 @@ from .engine.simulate import simulate as simulate
 from .engine.trajectory import Status as Status
 from .engine.trajectory import Trajectory as Trajectory
 from .engine.trajectory import TransitionRecord as TransitionRecord
+from .integrators.base import Method as Method
+from .integrators.exact import Exact as Exact
+from .integrators.ida import IDA as IDA
+from .integrators.options import SolverOptions as SolverOptions
+from .integrators.registry import method_named as method_named
 from .model.elements import Component as Component
 from .model.elements import Mode as Mode
 from .model.elements import Parameter as Parameter
@@ -151,6 +155,10 @@ __all__ = [
     "SimulationError",
     "Sink",
     "SolverOptions",
+    "IDA",
+    "Exact",
+    "Method",
+    "method_named",
     "SolveStatus",
     "SPECIAL_KINDS",
     "SpecialPoint",

@@ -77,7 +77,7 @@ CONTINUATION = hybrid.ContinuationOptions(
     locate=False, max_angle=0.3, ds=0.05, samples_per_period=32, transient_periods=5
 )
 
-#: Tolerances of the IDA cross-check (``SolverOptions(rtol=1e-10)``, absolute 1e-12).
+#: Tolerances of the IDA cross-check (``SolverOptions(method=hybrid.IDA(rtol=1e-10))``, absolute 1e-12).
 IDA_RTOL, IDA_ATOL = 1e-10, 1e-12
 
 
@@ -93,8 +93,8 @@ def solver_options(integrator: str) -> hybrid.SolverOptions:
     hybrid.SolverOptions
     """
     if integrator == "ida":
-        return hybrid.SolverOptions(integrator="ida", rtol=IDA_RTOL, atol=IDA_ATOL)
-    return hybrid.SolverOptions(integrator=integrator)
+        return hybrid.SolverOptions(method=hybrid.IDA(rtol=IDA_RTOL, atol=IDA_ATOL))
+    return hybrid.SolverOptions(method=hybrid.method_named(integrator))
 
 
 @dataclass

@@ -11,7 +11,7 @@ from scipy.optimize import brentq
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit
+from hybrid import Exact, SolverOptions, periodic_orbit
 from hybrid.cli import main
 from hybrid_models.linear import limit_amplitude, stick_amplitudes, stick_eigenfrequencies
 
@@ -72,7 +72,7 @@ def test_orbit_pure_stick_matches_the_linear_closed_form(tmp_path, capsys):
 def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
     """`hybrid orbit absorber --omega 0.854` (defaults: IDA, rtol 1e-8) against two independent routes.
 
-    1. The exact integrator (SolverOptions(integrator="exact"): matrix exponentials of the affine
+    1. The exact integrator (SolverOptions(method=Exact()): matrix exponentials of the affine
        modes, guard roots of the exact flow; Newton to a residual of 1e-15) from the section the CLI
        reports. The CLI's orbit is accurate to about cond(I - M) x residual = 2.1e3 x 7.5e-10, i.e.
        1.6e-6 of the state: amplitudes to 2.5e-7 relative (measured 1.1e-7), switch times to 1e-6 s
@@ -101,7 +101,7 @@ def test_orbit_stick_slip_at_the_first_resonance(tmp_path, capsys):
         d["x0"],
         d["mode0"],
         t0=d["t0"],
-        options=SolverOptions(integrator="exact"),
+        options=SolverOptions(method=Exact()),
         settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-12), transient_periods=0),
     )
     assert ex.converged, ex.message

@@ -22,7 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import hybrid_models
-from hybrid import FUNCTIONS, ModelError, SolverOptions, load_system, simulate, system_from_dict
+from hybrid import FUNCTIONS, IDA, ModelError, SolverOptions, load_system, simulate, system_from_dict
 from hybrid.cli import main
 
 MODEL_DIR = Path(hybrid_models.__file__).parent
@@ -145,7 +145,7 @@ def _try_run(system) -> str:
             (0.0, t_end),
             np.zeros(len(system.variable_names)),
             throw=False,
-            options=SolverOptions(max_num_steps=5000),
+            options=SolverOptions(method=IDA(max_num_steps=5000)),
             max_transitions=200,
         )
     except ValueError as exc:

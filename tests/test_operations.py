@@ -415,7 +415,7 @@ def test_each_shipped_forced_model_sweeps_and_its_workers_compute_what_this_proc
     par = next(p.name for p in system.parameters if p.name != forcing and params.get(p.name, 0) > 0)
     axis = hybrid.linear_axis(par, params[par], params[par], 1.0)
     p_range = (0.6 * params[forcing], 0.61 * params[forcing])  # a short curve below the resonances
-    exact = hybrid.SolverOptions(integrator="exact")  # (every shipped forced model is affine)
+    exact = hybrid.SolverOptions(method=hybrid.Exact())  # (every shipped forced model is affine)
     here = hybrid.sweep(system, params, [axis], tmp_path / "here", p_range=p_range, options=exact)
     with hybrid.core.workers.ProcessPool(1) as pool:
         there = hybrid.sweep(

@@ -15,13 +15,14 @@ import math
 import os
 import sys
 from collections.abc import Iterable, Sequence
+from dataclasses import fields
 from pathlib import Path
 
 from ..core.errors import InputError, OutputError
 from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text
-from ..core.options import INTEGRATORS, SolverOptions
 from ..engine.simulate import initial_state
-from ..integrators.registry import integrator
+from ..integrators.options import SolverOptions
+from ..integrators.registry import METHODS, NAMES
 from ..model.plot_hints import plot_hints
 from ..model.registry import builtin_models, is_model_file, resolve_model
 from ..model.system import HybridSystem
@@ -156,19 +157,20 @@ def add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
         )
 
 
-def add_tolerances(p: argparse.ArgumentParser) -> None:
+def add_tolerances(
+    p: argparse.ArgumentParser,
+    rtol: float = ORBIT_OPTIONS.method.rtol,
+    atol: float = ORBIT_OPTIONS.method.atol,
+) -> None:
+    """``--rtol`` and ``--atol``: the tolerances of a method that has them (IDA), defaults
+    ``rtol`` and ``atol``; refused with a method that has none (:func:`solver_options`)."""
     p.add_argument(
-        "--rtol",
-        type=positive_float,
-        default=ORBIT_OPTIONS.rtol,
-        help=f"relative tolerance (default {ORBIT_OPTIONS.rtol:g})",
+        "--rtol", type=positive_float, default=None, help=f"relative tolerance of IDA (default {rtol:g})"
     )
     p.add_argument(
-        "--atol",
-        type=positive_float,
-        default=ORBIT_OPTIONS.atol,
-        help=f"absolute tolerance (default {ORBIT_OPTIONS.atol:g})",
+        "--atol", type=positive_float, default=None, help=f"absolute tolerance of IDA (default {atol:g})"
     )
+    p.set_defaults(tolerance_defaults={"rtol": rtol, "atol": atol})
 
 
 def add_budget(p: argparse.ArgumentParser) -> None:
@@ -194,7 +196,7 @@ def add_work_limits(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--integrator",
-        choices=INTEGRATORS,
+        choices=NAMES,
         default="ida",
         help="ida (default, any model) or exact (matrix exponentials: models affine in the state, "
         "forced by harmonics of one base frequency)",
@@ -202,13 +204,35 @@ def add_work_limits(p: argparse.ArgumentParser) -> None:
 
 
 def check_integrator(system: HybridSystem, params: dict[str, float], options: SolverOptions) -> None:
-    """Refuse, before any run, a model the chosen integrator cannot take (NotAffineError, exit 2)."""
-    integrator(options.integrator).check_model(system, params)
+    """Refuse, before any run, a model the chosen method cannot take (NotAffineError, exit 2)."""
+    options.method.check_model(system, params)
 
 
-def budget_options(args) -> dict:
-    """The :class:`SolverOptions` fields set by the run options (budget and integrator)."""
-    return {"max_steps": args.max_steps, "max_wall_time": args.max_time, "integrator": args.integrator}
+def solver_options(args, *, wall_time: bool = True) -> SolverOptions:
+    """The :class:`SolverOptions` of the run options: the method of ``--integrator`` with the
+    tolerances given (``--rtol``, ``--atol``, else the command's defaults), the budget
+    (``--max-steps``, and ``--max-time`` as each run's wall-clock limit where ``wall_time``).
+
+    Raises
+    ------
+    UsageError
+        A tolerance given for a method that has none (``--integrator exact --rtol ...``).
+    """
+    cls = METHODS[args.integrator]
+    takes = {f.name for f in fields(cls)}
+    given = {k: getattr(args, k) for k in ("rtol", "atol") if getattr(args, k, None) is not None}
+    refused = [k for k in given if k not in takes]
+    if refused:
+        raise UsageError(
+            f"{', '.join('--' + k for k in refused)} does not apply to --integrator {args.integrator}: its "
+            "runs have no tolerances (they are exact to rounding); leave it out, or use --integrator ida"
+        )
+    defaults = getattr(args, "tolerance_defaults", {})
+    settings = {k: given.get(k, v) for k, v in defaults.items() if k in takes}
+    budget = {"max_steps": args.max_steps}
+    if wall_time and getattr(args, "max_time", None) is not None:
+        budget["max_wall_time"] = args.max_time
+    return SolverOptions(method=cls(**settings), **budget)
 
 
 def info(msg: str) -> None:

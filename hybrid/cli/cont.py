@@ -31,7 +31,6 @@ from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branc
 from ..continuation.branch import Branch
 from ..core.budget import deadline_passed, time_limit
 from ..core.errors import BudgetExceeded
-from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus
 from ..engine.io import to_json
@@ -41,14 +40,14 @@ from .common import (
     add_budget,
     add_guess_args,
     add_model_args,
+    add_tolerances,
     announce,
-    budget_options,
     guess,
     model,
     output_dir,
     parameters,
-    positive_float,
     results,
+    solver_options,
 )
 
 __all__ = ["register", "run"]
@@ -81,8 +80,7 @@ def register(subparsers) -> None:
         help="variable or output whose amplitude "
         "(half peak-to-peak) is plotted (default: the first displacement of the model's [plot])",
     )
-    p.add_argument("--rtol", type=positive_float, default=1e-10, help="relative tolerance (default 1e-10)")
-    p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    add_tolerances(p, rtol=1e-10, atol=1e-12)
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -151,7 +149,7 @@ def run(args) -> int:
     coord = args.coordinate or (list(system.plot.get("displacements", ())) or list(system.variable_names))[0]
     if coord not in system.variable_names and coord not in system.outputs:
         raise UsageError(f"--coordinate `{coord}` is neither a variable nor an output of `{system.name}`")
-    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    options = solver_options(args)
     time_scale(system, params, None)  # a model without a period guess is refused here
     out = output_dir(system, args)
     bar = ProgressBar(f"cont {system.name}", enabled=args.progress)

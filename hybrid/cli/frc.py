@@ -19,11 +19,11 @@ from ..continuation.frc import Piece, default_range, frequency_response
 from ..continuation.switching import SWITCHABLE, switch_branch
 from ..core.budget import time_limit
 from ..core.errors import HybridError
-from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
 from ..core.workers import Terminated, cap_workers
 from ..engine.io import csv_cell, to_json, write_rows_csv
+from ..integrators.options import SolverOptions
 from ..model.linear import linear_response, natural_frequencies
 from ..model.plot_hints import plot_hints, unit_of
 from ..model.system import HybridSystem
@@ -34,7 +34,6 @@ from .common import (
     add_model_args,
     add_tolerances,
     announce,
-    budget_options,
     check_integrator,
     info,
     model,
@@ -43,6 +42,7 @@ from .common import (
     positive_float,
     positive_int,
     results,
+    solver_options,
 )
 
 FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
@@ -285,7 +285,7 @@ def cmd_frc(args) -> int:
         lo, hi = default_range(system, params)
     else:
         raise UsageError(f"give the range of `{par}` (--omega-range A B)")
-    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    options = solver_options(args)
     check_integrator(system, params, options)
     out = output_dir(system, args)
     with results(out, FILES) as staged:

@@ -27,7 +27,7 @@ from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branc
 from ..continuation.forced import continue_orbits
 from ..continuation.locus import LOCUS_KINDS, continue_locus
 from ..core.budget import time_limit
-from ..core.options import ContinuationOptions, SolverOptions
+from ..core.options import ContinuationOptions
 from ..core.progress import ProgressBar
 from ..engine.io import to_json, write_rows_csv
 from ..orbits.autonomous import autonomous_orbit
@@ -39,7 +39,6 @@ from .common import (
     add_model_args,
     add_tolerances,
     announce,
-    budget_options,
     check_integrator,
     guess,
     info,
@@ -49,6 +48,7 @@ from .common import (
     positive_float,
     positive_int,
     results,
+    solver_options,
 )
 
 #: The files ``hybrid locus`` writes in its folder.
@@ -156,7 +156,7 @@ def run(args) -> int:
             raise UsageError("give the special points to follow (--point N or --kind K; --list shows them)")
     preset, params = parameters(system, args)
     x0, mode0 = guess(system, args)
-    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    options = solver_options(args)
     check_integrator(system, params, options)
     out = output_dir(system, args)
     announce(system, preset, params)

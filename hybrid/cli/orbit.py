@@ -6,7 +6,7 @@ import time
 
 from ..continuation.periodic import periodic_orbit
 from ..core.budget import time_limit
-from ..core.options import ShootingOptions, SolverOptions
+from ..core.options import ShootingOptions
 from ..engine.io import to_json, write_trajectory_csv
 from ..orbits.orbit import PeriodicOrbit, stability_text
 from .common import (
@@ -16,7 +16,6 @@ from .common import (
     add_model_args,
     add_tolerances,
     announce,
-    budget_options,
     check_integrator,
     guess,
     info,
@@ -27,6 +26,7 @@ from .common import (
     positive_int,
     results,
     samples_per_period,
+    solver_options,
     unit,
 )
 
@@ -105,7 +105,7 @@ def cmd_orbit(args) -> int:
     spp = samples_per_period(args)
     preset, params = parameters(system, args)
     x0, mode0 = guess(system, args)
-    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    options = solver_options(args)
     check_integrator(system, params, options)
     out = output_dir(system, args)
     with results(out, FILES) as files:

@@ -6,7 +6,6 @@ import argparse
 import time
 
 from ..core.budget import time_limit
-from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..engine.io import EventsCSVWriter, TrajectoryCSVWriter, to_json, trajectory_summary
 from ..engine.record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
@@ -17,8 +16,8 @@ from .common import (
     UsageError,
     add_budget,
     add_model_args,
+    add_tolerances,
     announce,
-    budget_options,
     check_integrator,
     info,
     model,
@@ -29,6 +28,7 @@ from .common import (
     positive_int,
     results,
     samples_per_period,
+    solver_options,
 )
 
 #: Forcing periods at the end of a `simulate` run kept in memory for its figure.
@@ -58,8 +58,7 @@ def register(sub) -> None:
         "--x0", action="append", metavar="NAME=VALUE", help="initial value of a variable (default 0)"
     )
     p.add_argument("--mode0", help="initial mode (default: the model's initial mode)")
-    p.add_argument("--rtol", type=positive_float, default=1e-8, help="relative tolerance (default 1e-8)")
-    p.add_argument("--atol", type=positive_float, default=1e-10, help="absolute tolerance (default 1e-10)")
+    add_tolerances(p, rtol=1e-8, atol=1e-10)
     p.add_argument(
         "--samples-per-period",
         type=positive_int,
@@ -106,7 +105,7 @@ def cmd_simulate(args) -> int:
         )
     x0 = {n: 0.0 for n in system.variable_names}
     x0.update(pairs(args.x0, "--x0"))
-    options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
+    options = solver_options(args)
     check_integrator(system, params, options)
     out = output_dir(system, args)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)

@@ -19,7 +19,6 @@ from pathlib import Path
 from ..core.budget import time_limit
 from ..core.errors import WorkerError
 from ..core.files import FolderLock
-from ..core.options import SolverOptions
 from ..core.progress import ProgressBar
 from ..core.workers import ProcessPool, Terminated, cap_workers, die_with_parent
 from ..studies.sweep import FAILED, MANIFEST, linear_axis, load_sweep, log_axis, sweep
@@ -38,6 +37,7 @@ from .common import (
     positive_float,
     positive_int,
     results,
+    solver_options,
     writable_folder,
 )
 
@@ -321,9 +321,7 @@ def cmd_sweep(args) -> int:
         p_range = tuple(args.omega_range)
         if not p_range[0] < p_range[1]:
             raise UsageError(f"`--omega-range A B` needs A < B, got {p_range[0]:g} {p_range[1]:g}")
-    options = SolverOptions(
-        rtol=args.rtol, atol=args.atol, max_steps=args.max_steps, integrator=args.integrator
-    )
+    options = solver_options(args, wall_time=False)
     check_integrator(system, params, options)
     if args.out is not None and not args.out.strip():
         raise UsageError("`--out` needs a folder path, got an empty string")

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import types
-from dataclasses import replace
 
 import numpy as np
 
@@ -79,9 +78,7 @@ class Locator:
 
     def __init__(self, evaluate, make_orbit, settings, fm: FlowMap):
         self.evaluate, self.make_orbit, self.settings, self.fm = evaluate, make_orbit, settings, fm
-        self.sh = types.SimpleNamespace(
-            integrator=fm.integrator, noise_rtol=fm.integrator.noise_rtol(fm.options)
-        )
+        self.sh = types.SimpleNamespace(method=fm.method, noise_rtol=fm.method.noise_rtol)
 
     def correct(self, a: AutoPoint, s: float, samples=None, light: bool = False, polish: bool = False):
         """The point at arclength ``s`` along ``a``'s tangent, corrected on the normal hyperplane."""
@@ -104,16 +101,11 @@ class Locator:
     def rerun(self, pt: AutoPoint, factor: float = 100.0):
         """One period from ``pt``'s orbit at tolerances ``factor`` times tighter (IDA), as a summary;
         None on the exact integrator or if the run fails."""
-        if self.sh.integrator.exact:
+        tight = self.sh.method.tightened(factor)
+        if tight is None:
             return None
         o = pt.orbit
-        opts = self.fm.options
-        atol = (
-            opts.atol / factor
-            if not isinstance(opts.atol, dict)
-            else {k: v / factor for k, v in opts.atol.items()}
-        )
-        opts = replace(opts, rtol=opts.rtol / factor, atol=atol, atol_default=opts.atol_default / factor)
+        opts = self.fm.options.with_method(tight)
         try:
             tr = FlowMap(self.fm.system, o.params, opts, o.period).run(
                 o.x0, o.mode0, o.period * (1.0 - 1e-10)
@@ -200,7 +192,7 @@ def locate_end(
     if best is None:
         return None, []
     what, fn, _, hist = best
-    exact = loc.sh.integrator.exact
+    exact = loc.sh.method.flows_exact
     floor = 0.0 if exact else 10.0 * loc.sh.noise_rtol
     probes_out: list = []
     eps = 0.1 * tol

@@ -28,9 +28,10 @@ import numpy as np
 
 from ..core.budget import deadline_passed, limit_text
 from ..core.errors import InputError, InputTypeError, ParameterOutOfDomain
-from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.options import ContinuationOptions, reject_keywords
 from ..core.status import BranchStatus
 from ..core.threads import with_blas_threads
+from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
 from ..orbits.autonomous import AutonomousSolver, finish, resolve_phase
 from ..orbits.equilibria import Equilibrium, equilibrium, locate_hopf

@@ -37,7 +37,8 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 from ..core.budget import deadline_passed, time_limit
-from ..core.options import ContinuationOptions, ShootingOptions, SolverOptions
+from ..core.options import ContinuationOptions, ShootingOptions
+from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
 from ..orbits.orbit import PeriodicOrbit
 from ..orbits.shooting import shoot_orbit

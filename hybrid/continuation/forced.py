@@ -22,22 +22,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
 from functools import partial
 
 import numpy as np
 
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError
-from ..core.options import (
-    FIRST_ORBIT_MAX_ITER,
-    ContinuationOptions,
-    SolverOptions,
-    reject_keywords,
-)
+from ..core.options import FIRST_ORBIT_MAX_ITER, ContinuationOptions, reject_keywords
 from ..core.threads import with_blas_threads
 from ..engine.simulate import check_time_range, initial_state
 from ..engine.trajectory import Status
+from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
 from ..orbits.newton import COARSE_RTOL, COARSE_SWITCH, NewtonMap, coarse_shooter, state_scale
 from ..orbits.orbit import (
@@ -108,6 +103,11 @@ class _Point:
     def view(self):
         """The orbit if made, else the light summary (for signatures and mode fractions)."""
         return self._orbit if self._orbit is not None or self.summary is None else self.summary
+
+
+#: The least size of a branch's first orbit from which growth is measured, for a method without
+#: absolute tolerances (an orbit at rest has a size of rounding noise).
+SIZE_FLOOR = 1e-12
 
 
 def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: int) -> _Point | None:
@@ -417,14 +417,11 @@ class _Continuer:
         """The run from ``pt``'s section state at tolerances ``factor`` times tighter (IDA), as a
         summary (events, mode fractions): the difference of its phases from ``pt``'s estimates
         their integration error. None on the exact integrator, or if the run fails."""
-        if self.sh.integrator.exact:
+        tight = self.sh.method.tightened(factor)
+        if tight is None:
             return None
         if self.tight is None:
-            o = self.sh.options
-            atol = (
-                {k: v / factor for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol / factor
-            )
-            opts = replace(o, rtol=o.rtol / factor, atol=atol, atol_default=o.atol_default / factor)
+            opts = self.sh.options.with_method(tight)
             self.tight = Shooter(self.system, self.sh.params, opts, None, self.sh.periods)
         self.at(pt.p)
         self.tight.set_params({**self.base, self.parameter: pt.p})
@@ -717,8 +714,11 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
         return
     add(first)
     # Growth is measured from the first orbit's size, or from the absolute tolerance if that is
-    # smaller (an orbit at rest, e.g. without forcing, has a size of rounding noise).
-    size0 = max(_size(first), min(c.sh.options.atol_vector(c.sh.names)))
+    # smaller (an orbit at rest, e.g. without forcing, has a size of rounding noise); a method
+    # without absolute tolerances (the exact flow) takes SIZE_FLOOR.
+    size0 = max(
+        _size(first), float(np.min(c.sh.method.atol_vector(c.sh.names), initial=np.inf)) or SIZE_FLOOR
+    )
     ds_cur = st.ds
     rephased = False
     n_points, fails = 1, 0

@@ -23,10 +23,11 @@ from ..core.budget import current_deadline, deadline_passed, limit_text
 from ..core.budget import restore_deadline as _deadline
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
-from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.options import ContinuationOptions, reject_keywords
 from ..core.status import BranchStatus, ResponseStatus
 from ..core.threads import with_blas_threads
 from ..core.workers import die_with_parent
+from ..integrators.options import SolverOptions
 from ..model.linear import natural_frequencies
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem, shared
@@ -298,7 +299,7 @@ def frequency_response(
         depends on, :func:`hybrid.forcing_parameter`).
     options : SolverOptions, optional
         Tolerances and budgets of the runs (default :data:`hybrid.ORBIT_OPTIONS`), e.g.
-        ``SolverOptions(integrator="exact")``.
+        ``SolverOptions(method=Exact())``.
     settings : ContinuationOptions, optional
         Steps, tolerances, location of special points, limits of a branch (default
         ``ContinuationOptions()``).
@@ -331,7 +332,7 @@ def frequency_response(
         Bad input (before any integration).
     hybrid.core.errors.InputTypeError
         A keyword that is a field of ``options`` or ``settings`` (the message says which: e.g.
-        ``integrator="exact"`` belongs in ``options=SolverOptions(integrator="exact")``).
+        ``integrator="exact"`` belongs in ``options=SolverOptions(method=Exact())``).
 
     Examples
     --------

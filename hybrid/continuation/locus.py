@@ -27,8 +27,9 @@ import numpy as np
 
 from ..core.callbacks import Progress
 from ..core.errors import HybridError, InputError, InputTypeError
-from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.options import ContinuationOptions, reject_keywords
 from ..core.status import BranchStatus, LocateStatus
+from ..integrators.options import SolverOptions
 from ..orbits.autonomous import autonomous_orbit
 from ..orbits.equilibria import equilibrium, locate_hopf
 from ..orbits.orbit import ORBIT_OPTIONS

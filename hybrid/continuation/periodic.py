@@ -12,7 +12,8 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 from ..core.budget import deadline_passed
-from ..core.options import ShootingOptions, SolverOptions, reject_keywords
+from ..core.options import ShootingOptions, reject_keywords
+from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
 from ..orbits.autonomous import autonomous_orbit
 from ..orbits.orbit import PeriodicOrbit

@@ -390,7 +390,7 @@ def _unlocated(c, a, b, kind: str, ds: float) -> _Located:
     if kind in SMOOTH:
         m = (
             rounding_margin((a, b), 0.5 * (a.p + b.p))
-            if c.sh.integrator.exact and kind in ROUNDED_KINDS
+            if c.sh.method.flows_exact and kind in ROUNDED_KINDS
             else 0.0
         )
         return _Located(None, "bracketed", 0.5 * (a.p + b.p), (min(a.p, b.p) - m, max(a.p, b.p) + m), note)
@@ -398,7 +398,7 @@ def _unlocated(c, a, b, kind: str, ds: float) -> _Located:
     w, o = ((0.0, a), (ds, b)) if rule.with_a else ((ds, b), (0.0, a))
     probes = [(w[0], w[1].p, rule.measure(w[1].view()), w[1])] if rule.measure else []
     lo, hi, why = _phase_interval(c, rule, w, o, probes)
-    m = rounding_margin((a, b), 0.5 * (lo + hi)) if c.sh.integrator.exact else 0.0
+    m = rounding_margin((a, b), 0.5 * (lo + hi)) if c.sh.method.flows_exact else 0.0
     return _Located(
         None, "bracketed", 0.5 * (lo + hi), (lo - m, hi + m), "; ".join(x for x in (note, why) if x)
     )
@@ -413,7 +413,7 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
     samples = settings.samples_per_period
     up = kind == "fold" and _slope(c, a, a) > 0
     extreme = max((a, b), key=lambda q: q.p if up else -q.p)  # a fold's most extreme computed point
-    rounded = c.sh.integrator.exact and kind in ROUNDED_KINDS
+    rounded = c.sh.method.flows_exact and kind in ROUNDED_KINDS
 
     def result(status_note: str, located: bool = False) -> _Located:
         nonlocal best
@@ -454,10 +454,10 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             try:
                 if kind == "branch-point":
                     q = c.correct(
-                        c.between(q_lo, q_hi, (x - s_lo) / w), 0.0, samples, polish=c.sh.integrator.exact
+                        c.between(q_lo, q_hi, (x - s_lo) / w), 0.0, samples, polish=c.sh.method.flows_exact
                     )
                 else:
-                    q = c.correct(a, x, samples, polish=c.sh.integrator.exact)
+                    q = c.correct(a, x, samples, polish=c.sh.method.flows_exact)
             except fail_types as exc:
                 why = f"corrector failed: {exc}"
                 continue
@@ -716,7 +716,7 @@ def fold_integration_error(c, pt) -> float:
     (a branch of autonomous orbits: its fold is then located on the branch as computed only).
     """
     sh = getattr(c, "sh", None)
-    if sh is None or sh.integrator.exact or not hasattr(c, "rerun") or not hasattr(c, "jacobian"):
+    if sh is None or sh.method.flows_exact or not hasattr(c, "rerun") or not hasattr(c, "jacobian"):
         return 0.0
     try:
         if c.rerun(pt) is None:  # (makes the tighter map, c.tight)
@@ -753,7 +753,7 @@ def _phase_interval(c, rule: _PhaseRule, w: tuple, o: tuple, probes: list):
         return lo, hi, ""
     towards = 1.0 if p_o >= p_w else -1.0
     width = abs(p_o - p_w)
-    if c.sh.integrator.exact:
+    if c.sh.method.flows_exact:
         res = EXACT_PHASE_RESOLUTION
         f_w = rule.measure(w[1].view())
         r = res / f_w if f_w > 0 else math.inf
@@ -817,7 +817,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     probes = [(w[0], w[1].p, rule.measure(w[1].view()), w[1])] if rule.measure else []
     slope = (b.p - a.p) / ds if ds > 0 else 0.0
     eps = 0.1 * tol_p / max(abs(slope), 1e-300)  # a tenth of the tolerance, in arclength
-    exact = c.sh.integrator.exact
+    exact = c.sh.method.flows_exact
     floor = 0.0 if exact else NOISY_FLOOR * c.sh.noise_rtol * max(abs(a.p), abs(b.p))
     note = ""
     bisect = False  # the last aimed probes did not halve the interval: bisect once

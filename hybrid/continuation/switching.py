@@ -23,7 +23,8 @@ import numpy as np
 
 from ..core.callbacks import Progress
 from ..core.errors import InputError, InputTypeError
-from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.options import ContinuationOptions, reject_keywords
+from ..integrators.options import SolverOptions
 from ..orbits.newton import NewtonMap
 from ..orbits.orbit import ORBIT_OPTIONS
 from .autonomous import hopf_branch

@@ -1,7 +1,7 @@
 """Options of every computation (frozen, validated at construction), nested where they nest.
 
-* :class:`SolverOptions`: one integration (tolerances, budgets, the integrator); every function
-  that integrates takes it as ``options=``;
+* :class:`hybrid.SolverOptions` (in :mod:`hybrid.integrators.options`, since it holds the
+  integration method): one integration; every function that integrates takes it as ``options=``;
 * the algorithm's own options, as ``settings=``: :class:`NewtonOptions` (one Newton iteration:
   an equilibrium, a Hopf point), :class:`ShootingOptions` (one periodic orbit: its Newton
   options, transient and samples), :class:`ContinuationOptions` (a branch: steps, special
@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import MISSING, dataclass, field, fields, is_dataclass
+from dataclasses import MISSING, dataclass, fields, is_dataclass, replace
 
 from .errors import InputError, InputTypeError
 
 __all__ = [
-    "SolverOptions",
+    "check_positive",
     "NewtonOptions",
     "ShootingOptions",
     "ContinuationOptions",
@@ -41,6 +41,17 @@ def _positive(name: str, value, *, allow_none: bool = False, owner: str = "Solve
         or value <= 0
     ):
         raise InputError(f"{owner}: `{name}` must be a finite number > 0, got {value!r}")
+
+
+def check_positive(owner: str, name: str, value, *, allow_none: bool = False) -> None:
+    """Refuse ``value`` unless it is a finite number > 0 (or None, with ``allow_none``), naming the
+    options class ``owner`` and the field ``name``.
+
+    Raises
+    ------
+    hybrid.core.errors.InputError
+    """
+    _positive(name, value, allow_none=allow_none, owner=owner)
 
 
 def _integer(owner: str, name: str, value, lo: int) -> None:
@@ -70,121 +81,6 @@ def check_samples(samples_per_period, owner: str = "") -> None:
             + f"`samples_per_period` must be an integer >= {MIN_SAMPLES} (the amplitudes are taken from the "
             f"samples), got {samples_per_period!r}"
         )
-
-
-#: Integrators of a mode's flow: IDA (any model) and the exact flow of affine modes.
-INTEGRATORS = ("ida", "exact")
-
-
-@dataclass(frozen=True)
-class SolverOptions:
-    """Options of :func:`hybrid.simulate`.
-
-    Attributes
-    ----------
-    rtol : float
-        Relative tolerance of IDA (1e-14 <= rtol <= 1e-2).
-    atol : float or mapping of str to float
-        Absolute tolerance, one value or per variable name (unnamed variables
-        get ``atol_default``).
-    atol_default : float
-        Absolute tolerance of variables not named in a mapping ``atol``.
-    max_step : float or None
-        Largest step [s]. ``None``: a sixteenth of the forcing period, or a
-        fiftieth of the time span if the system declares no period.
-    max_num_steps : int
-        Internal steps IDA may take per call (the engine goes on from where a
-        call stopped, within ``max_steps``).
-    max_steps : int
-        Budget of one integration (a simulation, or the variational run of
-        one period), all modes and calls together, counted in IDA residual
-        evaluations (every internal step takes at least one; with the exact
-        Jacobian usually one or two). A run that exhausts it stops with
-        ``Status.STEP_LIMIT``; so does a run that, after 2 % of it (and at
-        least 20 000), needs more than four times it at its rate so far (e.g. dynamics far faster than
-        the forcing). The default allows about ten thousand forcing periods
-        of the shipped models.
-    max_wall_time : float
-        Wall-clock budget of one integration [s] (``Status.TIME_LIMIT``). A
-        whole computation is limited by :func:`hybrid.time_limit`.
-    zeno_count : int
-        A burst of this many transitions ...
-    zeno_window : float or None
-        ... within this time [s] stops the run as a Zeno burst. ``None``:
-        1e-6 times the forcing period, or 1e-6 s for a model without one
-        (independent of the time span).
-    max_chain : int
-        Transitions allowed at one instant (chained switches) before the run
-        stops with "no admissible mode"; for a system with components, this many
-        per component and as many again.
-    taylor_order : int
-        Order of the Taylor series used to decide the successor mode at a
-        switch where a guard of the new mode starts at zero.
-    guard_noise : float
-        Safety factor on the noise level of a guard, ``sum_j |dh/dy_j|
-        (atol_j + rtol |y_j|)``: within it a guard counts as zero at a
-        switch and stays disarmed until it has left it.
-    integrator : {"ida", "exact"}
-        ``"ida"`` (default): SUNDIALS IDA, any model. ``"exact"``: matrix
-        exponentials and exact guard roots, for models whose modes and guards
-        are all affine in the state with time only in sin/cos of one forcing
-        frequency (:mod:`hybrid.integrators.exact`); another model is refused naming its
-        first non-affine term. The tolerances do not apply to it.
-    """
-
-    rtol: float = 1e-8
-    atol: float | Mapping[str, float] = 1e-10
-    atol_default: float = 1e-10
-    max_step: float | None = None
-    max_num_steps: int = 50_000
-    max_steps: int = 10_000_000
-    max_wall_time: float = 900.0
-    zeno_count: int = 20
-    zeno_window: float | None = None
-    max_chain: int = 8
-    taylor_order: int = 4
-    guard_noise: float = 10.0
-    integrator: str = "ida"
-    _atol_map: Mapping[str, float] = field(default=None, init=False, repr=False, compare=False)
-
-    def __post_init__(self):
-        _positive("rtol", self.rtol)
-        if not 1e-14 <= self.rtol <= 1e-2:
-            raise InputError(f"SolverOptions: `rtol` must lie in [1e-14, 1e-2], got {self.rtol!r}")
-        if isinstance(self.atol, Mapping):
-            for k, v in self.atol.items():
-                _positive(f"atol[{k!r}]", v)
-            object.__setattr__(self, "_atol_map", dict(self.atol))
-        else:
-            _positive("atol", self.atol)
-        _positive("atol_default", self.atol_default)
-        _positive("max_step", self.max_step, allow_none=True)
-        _positive("zeno_window", self.zeno_window, allow_none=True)
-        _positive("guard_noise", self.guard_noise)
-        _positive("max_wall_time", self.max_wall_time)
-        for name in ("max_num_steps", "max_steps", "zeno_count", "max_chain", "taylor_order"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise InputError(f"SolverOptions: `{name}` must be an integer >= 1, got {v!r}")
-        if self.integrator not in INTEGRATORS:
-            raise InputError(
-                f"SolverOptions: `integrator` must be one of {', '.join(INTEGRATORS)}, got {self.integrator!r}"
-            )
-        if self.taylor_order < 2:
-            raise InputError(
-                "SolverOptions: `taylor_order` must be >= 2 (a switch into stick needs the second order)"
-            )
-
-    def atol_vector(self, names) -> list[float]:
-        """Absolute tolerance per variable, in ``names`` order."""
-        if self._atol_map is None:
-            return [float(self.atol)] * len(names)
-        unknown = set(self._atol_map) - set(names)
-        if unknown:
-            raise InputError(
-                f"SolverOptions: `atol` names unknown variable(s) {sorted(unknown)}; variables: {list(names)}"
-            )
-        return [float(self._atol_map.get(n, self.atol_default)) for n in names]
 
 
 @dataclass(frozen=True)
@@ -342,8 +238,9 @@ def _field_path(cls: type, name: str) -> list[str] | None:
         if f.name == name and f.init:
             return [name]
     for f in fields(cls):
-        if is_dataclass(f.default) and not isinstance(f.default, type):
-            inner = _field_path(type(f.default), name)
+        d = _default(f)
+        if is_dataclass(d) and not isinstance(d, type):
+            inner = _field_path(type(d), name)
             if inner is not None:
                 return [f.name, *inner]
     return None
@@ -378,7 +275,11 @@ def reject_keywords(function: str, keywords: Mapping, **where: object) -> None:
     ``function`` does not take; its message is the fix: for the keywords that are fields of an
     options class in ``where`` (argument name -> the options object the caller passed, or the
     class), the arguments to pass instead, each one options object holding them all and what the
-    caller had already set, e.g. ``options=SolverOptions(rtol=1e-09, integrator='exact')``.
+    caller had already set, e.g. ``options=SolverOptions(method=IDA(rtol=1e-09))``.
+
+    An options class may take keywords that are not its fields, spelled as in earlier versions:
+    it lists them in ``LOOSE_KEYWORDS`` and writes the fix itself with ``spelled_with(loose)``
+    (``SolverOptions``: ``rtol=1e-9`` -> ``SolverOptions(method=IDA(rtol=1e-09))``).
 
     Raises
     ------
@@ -388,9 +289,13 @@ def reject_keywords(function: str, keywords: Mapping, **where: object) -> None:
     if not keywords:
         return
     updates: dict[str, dict] = {}
+    loose: dict[str, dict] = {}
     unknown = []
     for name, value in keywords.items():
         for arg, obj in where.items():
+            if name in getattr(obj, "LOOSE_KEYWORDS", ()):
+                loose.setdefault(arg, {})[name] = value
+                break
             path = _field_path(obj if isinstance(obj, type) else type(obj), name)
             if path is not None:
                 node = updates.setdefault(arg, {})
@@ -402,12 +307,18 @@ def reject_keywords(function: str, keywords: Mapping, **where: object) -> None:
             unknown.append(name)
     names = ", ".join(repr(k) for k in keywords)
     parts = []
-    if updates:
-        fix = ", ".join(
-            f"{arg}={_constructor(obj() if isinstance(obj, type) else obj, updates[arg])}"
-            for arg, obj in where.items()
-            if arg in updates
-        )
+    if updates or loose:
+        fixes = []
+        for arg, obj in where.items():
+            if arg not in updates and arg not in loose:
+                continue
+            obj = obj() if isinstance(obj, type) else obj
+            if arg in loose:
+                obj = replace(obj, **updates.get(arg, {}))  # (the fields of such a class are flat)
+                fixes.append(f"{arg}={obj.spelled_with(loose[arg])}")
+            else:
+                fixes.append(f"{arg}={_constructor(obj, updates[arg])}")
+        fix = ", ".join(fixes)
         parts.append(f"options go in objects, not keywords: call {function}(..., {fix})")
     parts += [f"`{name}` is not an argument of {function}()" for name in unknown]
     raise InputTypeError(f"{function}() got unexpected keyword argument(s) {names}: " + "; ".join(parts))

@@ -29,10 +29,9 @@ import numpy as np
 
 from ..core.budget import Budget
 from ..core.errors import AlgebraicSolveError, BudgetExceeded, SampleCapReached, SimulationError
-from ..core.options import SolverOptions
 from ..integrators.base import ROOT, TSTOP, FlowSolver, StepResult
 from ..integrators.ida import explain
-from ..integrators.registry import integrator
+from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledMode, CompiledSystem, lead_sign
 from ..model.linear import fast_dynamics
 from .record import Recorder
@@ -90,7 +89,7 @@ class Run:
     ):
         self.cs = cs
         self.opt = options
-        self.integ = integrator(options.integrator)
+        self.integ = options.method
         self.atol = np.asarray(atol)
         self.t0, self.t1 = t0, t1
         self.samples = samples
@@ -124,29 +123,26 @@ class Run:
     # ------------------------------------------------------------------
     def solver(self, mode: int, careful: bool = False) -> FlowSolver:
         """The mode's solver (``careful``: with a tiny first step), from the integrator
-        (:meth:`hybrid.integrators.base.Integrator.mode_solver`), kept for the run."""
+        (:meth:`hybrid.integrators.base.Method.mode_solver`), kept for the run."""
         store = self.careful if careful else self.solvers
         s = store.get(mode)
         if s is None:
             h0 = CAREFUL_FIRST_STEP * self.max_step if careful else 0.0
             s = store[mode] = self.integ.mode_solver(
-                self.cs, mode, self.opt, atol=self.atol, max_step=self.max_step, first_step=h0
+                self.cs, mode, self.opt, max_step=self.max_step, first_step=h0
             )
         return s
 
     def noises(self, cm, t: float, y: np.ndarray) -> np.ndarray | None:
         """The noise level of every guard of ``cm`` at once (see :meth:`noise`), where the mode
         offers it in one call (a mode of a system with components); else None."""
-        fn = getattr(cm, "guard_noise_scale", None)
-        if fn is None:
-            return None
-        scale = self.atol + self.opt.rtol * np.abs(y)
-        return self.opt.guard_noise * fn(t, y, scale) + 1e-14
+        size = float(np.max(np.abs(y[self.dynamic]))) if self.dynamic.size else 0.0
+        return self.integ.guard_bands(cm, self.atol, t, y, size)
 
     def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
         grad, ht = cm.guard_gradient(k, t, y)
         size = float(np.max(np.abs(y[self.dynamic]))) if self.dynamic.size else 0.0
-        return self.integ.guard_noise(self.opt, self.atol, grad, ht, t, y, size)
+        return self.integ.guard_band(self.atol, grad, ht, t, y, size)
 
     def record(self, t: float, y: np.ndarray, mode: int) -> None:
         # completed switches go to the recorder first: no switch is pending while a sample is taken
@@ -648,7 +644,7 @@ class Run:
         """What to change after IDA failed with ``status``."""
         if status in (-3, -4):
             return (
-                f"; try another rtol (--rtol; it is {self.opt.rtol:g}) or a smaller step bound "
+                f"; try another rtol (--rtol; it is {self.integ.noise_rtol:g}) or a smaller step bound "
                 "(SolverOptions.max_step), and check the parameters"
             )
         return ""

@@ -15,9 +15,8 @@ import numpy as np
 
 from ..core.callbacks import Progress
 from ..core.errors import AlgebraicSolveError, InputError, InputTypeError
-from ..core.options import SolverOptions
 from ..core.threads import with_blas_threads
-from ..integrators.registry import integrator
+from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 from .eventloop import Run, step_bound
@@ -191,7 +190,7 @@ def simulate(
         )
     system.mode(mode0)
     cs = CompiledSystem(system, params)
-    integrator(options.integrator).check(cs)  # a model the integrator cannot take is refused before the run
+    options.method.check(cs)  # a model the method cannot take is refused before the run
     y0 = initial_state(system, x0, mode0)
     samples = sample_times(t_eval, samples_per_period, cs.period, t0, t1)
     check_time_range(cs, options, t0, t1)
@@ -251,7 +250,7 @@ def run_compiled(
     ``final_values``): a run of which only the states and switches are read, e.g. an iterate of
     Newton's method on the period map.
     """
-    atol = options.atol_vector(cs.system.variable_names)
+    atol = options.method.atol_vector(cs.system.variable_names)
     run = Run(cs, options, atol, t0, t1, samples, include_events, max_transitions, progress, outputs)
     check_sample_count(samples, t1 - t0, run.max_step, streamed=sink is not None)
     recorder = Recorder(

@@ -30,9 +30,8 @@ import numpy as np
 
 from ..core.budget import Budget
 from ..core.errors import GrazingSwitchError, ModelError
-from ..core.options import SolverOptions
 from ..integrators.base import VariationalSolver
-from ..integrators.registry import integrator
+from ..integrators.options import SolverOptions
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledMode, CompiledSystem
 from ..model.expr import diff, free_symbols
@@ -188,7 +187,7 @@ class Sensitivity:
         self.max_step = max_step
         self.resets = ResetJacobians()
         # the integrator's variational solvers of the modes (kept: built on first use)
-        self._solvers = integrator(options.integrator).variational(cs, self.s, options, max_step)
+        self._solvers = options.method.variational(cs, self.s, options, max_step)
         self.nfev = 0
 
     def _solver(self, m: int, extend: np.ndarray | None = None) -> VariationalSolver:

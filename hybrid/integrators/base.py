@@ -18,26 +18,30 @@ crossing of an armed guard in its direction. Its interface (the one the event lo
 Status codes of a step: :data:`SUCCESS` (reached ``tout``), :data:`TSTOP` (reached ``tstop``),
 :data:`ROOT` (a guard crossed); negative values are failures (IDA's flags).
 
-An integrator as a whole is an :class:`Integrator`: one object per integrator, found by its name
-(``SolverOptions.integrator``) in :mod:`hybrid.integrators.registry`, that knows everything in
-which the integrators differ (what it refuses, the solvers it builds for a run and for the
-variational equations, the noise of its runs, which stages of Newton's method on a period map
-apply). Callers ask it instead of testing the name.
+A method of integration as a whole is a :class:`Method`: a frozen object holding its own settings
+(:class:`hybrid.integrators.ida.IDA` its tolerances, :class:`hybrid.integrators.exact.Exact` none),
+passed as ``SolverOptions(method=...)`` and found by its name for the command line in
+:mod:`hybrid.integrators.registry`. It knows everything in which the methods differ: what it refuses,
+the solvers it builds for a run and for the variational equations, the noise of its runs and of a
+guard, a copy at tighter or looser tolerances. Callers ask it these questions (capabilities), never
+its name.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import ClassVar, Protocol
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, ClassVar, Protocol
 
 import numpy as np
 
 from ..core.budget import Budget
-from ..core.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
+
+if TYPE_CHECKING:  # (the options hold a method: imported for the annotations only)
+    from .options import SolverOptions
 
 __all__ = [
     "StepResult",
@@ -47,7 +51,7 @@ __all__ = [
     "FlowSolver",
     "VariationalSolver",
     "VariationalSolvers",
-    "Integrator",
+    "Method",
 ]
 
 SUCCESS, TSTOP, ROOT = 0, 1, 2
@@ -124,18 +128,20 @@ class VariationalSolvers(Protocol):
     def solver(self, m: int, extend: np.ndarray) -> VariationalSolver: ...
 
 
-class Integrator(ABC):
-    """An integrator of a mode's flow: what differs between IDA and the exact flow, in one place.
+class Method(ABC):
+    """A method of integration of a mode's flow and its own settings: what differs between IDA and
+    the exact flow, in one place.
 
-    One instance per integrator (:func:`hybrid.integrators.registry.integrator`); it holds no
-    state of a run (caches live with the compiled system or the caller).
+    Subclasses are frozen dataclasses (hashable, comparable, printable: ``IDA(rtol=1e-09, ...)``);
+    they hold no state of a run (caches live with the compiled system or the caller).
 
     Attributes
     ----------
     name : str
-        Its name in ``SolverOptions.integrator``.
-    exact : bool
-        Its flow is exact to rounding (no tolerances apply to it).
+        Its name on the command line (``--integrator``).
+    flows_exact : bool
+        Its runs are exact to rounding: no tolerance applies, a run is not improved by a tighter
+        one, and the uncertainty of a computed switch or special point is rounding.
     needs_derivatives : bool
         Its solvers start from a consistent ``(t, y, y')``: the derivatives are computed at every
         entry of a mode (else ``yp`` is None).
@@ -147,28 +153,36 @@ class Integrator(ABC):
         parametric affine analysis), so a period map takes a compiled system with every parameter
         read at run time (``hybrid.model.compiled.lend(..., every_parameter=True)``), set to the
         values of each run without compiling again.
-    broyden : bool
-        Newton's method on a period map updates ``I - M`` by Broyden's rule between monodromies
-        (each one a variational run of IDA); without it every step takes the exact Jacobian.
-    coarse_stage : bool
-        Newton's method on a period map may start at looser tolerances
-        (:func:`hybrid.orbits.newton.coarse_shooter`).
-    switch_time_newton : bool
-        Newton's method on a period map may solve for the switch times of a run's sequence
-        (:mod:`hybrid.orbits.sequence`, on the exact flows).
     """
 
     name: ClassVar[str]
-    exact: ClassVar[bool]
+    flows_exact: ClassVar[bool]
     needs_derivatives: ClassVar[bool]
     resolves_slaves: ClassVar[bool]
     runtime_parameters: ClassVar[bool]
-    broyden: ClassVar[bool]
-    coarse_stage: ClassVar[bool]
-    switch_time_newton: ClassVar[bool]
 
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}()"
+    def settings(self) -> dict:
+        """Its settings as plain data (``{"name": ..., field: value, ...}``), e.g. for a result file."""
+        return {"name": self.name, **asdict(self)}
+
+    @property
+    @abstractmethod
+    def noise_rtol(self) -> float:
+        """Relative accuracy of one run of a map (e.g. one forcing period)."""
+
+    def atol_vector(self, names: Sequence[str]) -> np.ndarray:
+        """Absolute accuracy of each variable of ``names`` (default: none, zeros)."""
+        return np.zeros(len(names))
+
+    def tightened(self, factor: float) -> Method | None:
+        """The same method at tolerances ``factor`` times tighter, to estimate a run's error by a
+        rerun; None where it has no tolerances (default)."""
+        return None
+
+    def loosened_to(self, rtol: float) -> Method | None:
+        """The same method at the looser relative tolerance ``rtol`` (absolute ones scaled alike),
+        for cheap first iterations; None where it has no tolerances or is already near it (default)."""
+        return None
 
     def check(self, cs: CompiledSystem) -> None:
         """Refuse, before any run, a compiled system this integrator cannot take (default: none)."""
@@ -180,12 +194,8 @@ class Integrator(ABC):
         return None  # takes every model
 
     @abstractmethod
-    def noise_rtol(self, options: SolverOptions) -> float:
-        """Relative accuracy of one run of a map (e.g. one forcing period) with ``options``."""
-
-    def guard_noise(
+    def guard_band(
         self,
-        options: SolverOptions,
         atol: np.ndarray,
         grad: np.ndarray,
         ht: float,
@@ -196,14 +206,10 @@ class Integrator(ABC):
         """The noise band of a guard at ``(t, y)``: a guard within it of zero is judged by its
         Taylor series along the flow, not by its sign (:meth:`hybrid.engine.eventloop.Run.enter`).
 
-        By default (an integrator with tolerances) ``guard_noise x sum |dh/dy| (atol + rtol |y|)
-        + 1e-14``: the accuracy of the state the tolerances allow, carried to the guard.
-
         Parameters
         ----------
-        options : SolverOptions
         atol : ndarray
-            Absolute tolerance per variable.
+            Absolute accuracy per variable (:meth:`atol_vector`).
         grad, ht : ndarray, float
             ``dh/dy`` and ``dh/dt`` of the guard at ``(t, y)``.
         t : float
@@ -214,8 +220,12 @@ class Integrator(ABC):
             ``max |y|`` over the state's variables that are not quadratures (the scale of the
             rounding of a state that a flow computes from all of them).
         """
-        scale = atol + options.rtol * np.abs(y)
-        return options.guard_noise * float(np.abs(grad) @ scale) + 1e-14
+
+    @abstractmethod
+    def guard_bands(self, cm, atol: np.ndarray, t: float, y: np.ndarray, size: float) -> np.ndarray | None:
+        """The noise band of every guard of the compiled mode ``cm`` at once, where the mode offers
+        the guards' gradients in one call (``cm.guard_noise_scale``, a mode of a system with
+        components); else None (the caller asks :meth:`guard_band` guard by guard)."""
 
     @abstractmethod
     def mode_solver(
@@ -224,7 +234,6 @@ class Integrator(ABC):
         mode: int,
         options: SolverOptions,
         *,
-        atol: np.ndarray,
         max_step: float,
         first_step: float = 0.0,
     ) -> FlowSolver:
@@ -236,9 +245,7 @@ class Integrator(ABC):
         mode : int
             Index of the mode in ``cs.modes``.
         options : SolverOptions
-            The run's options (tolerances, step counts).
-        atol : ndarray, shape (n,)
-            Absolute tolerance per variable.
+            The run's options (its budget of steps).
         max_step : float
             Step bound [s].
         first_step : float
@@ -260,10 +267,10 @@ class Integrator(ABC):
         self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float
     ) -> VariationalSolvers:
         """The variational solvers of ``cs``'s modes over the state indices ``s`` (free parameters
-        of ``cs`` appended to its state), with ``options``' tolerances and the step bound
-        ``max_step`` [s]."""
+        of ``cs`` appended to its state), with this method's tolerances, ``options``' budget and
+        the step bound ``max_step`` [s]."""
 
     def exact_flows(self, cs: CompiledSystem) -> list | None:
         """The modes' exact flows (:class:`hybrid.integrators.affine.AffineMode`) where this
-        integrator integrates with them, else None."""
+        method integrates with them, else None."""
         return None

@@ -12,26 +12,31 @@ missed; each root is polished by Newton steps on the exact flow. The fundamental
 :class:`ExactModeSolver` offers the interface of :class:`hybrid.integrators.ida.ModeSolver`
 (the contract of :mod:`hybrid.integrators.base`), so the event loop of :func:`hybrid.simulate`
 (switch location, resets, chains, Zeno) is the same for both integrators;
-:class:`ExactIntegrator` is the integrator as a whole (``SolverOptions(integrator="exact")``).
+:class:`Exact` is the method as a whole (``SolverOptions(method=Exact())``).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from math import comb
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
-from ..core.errors import InputError, NotAffineError
-from ..core.options import SolverOptions
+from ..core.errors import InputError, InputTypeError, NotAffineError
+from ..core.options import check_positive
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 from .affine import AffineMode, affine_flows
 from .assembly import ComposedFlows, SparseAffineMode
-from .base import ROOT, SUCCESS, TSTOP, Integrator, StepResult
+from .base import ROOT, SUCCESS, TSTOP, Method, StepResult
 from .flows import exact_flows
 
-__all__ = ["ExactIntegrator", "ExactModeSolver", "ExactSensitivity", "ExactVariational", "TAYLOR_DEGREE"]
+if TYPE_CHECKING:
+    from .options import SolverOptions
+
+__all__ = ["Exact", "ExactModeSolver", "ExactSensitivity", "ExactVariational", "TAYLOR_DEGREE"]
 
 #: Degree of the Taylor polynomial of a guard along one step (steps are sized so that it is exact to rounding).
 TAYLOR_DEGREE = 24
@@ -632,7 +637,7 @@ class ExactSensitivity:
 class ExactVariational:
     """The exact flows' variational solvers of one compiled system's modes (one
     :class:`ExactSensitivity` per mode, for one value of the free parameters at a time; see
-    :meth:`ExactIntegrator.variational`).
+    :meth:`Exact.variational`).
 
     The flows come from the system's parametric affine analysis (microseconds per parameter
     set); the column of a free parameter is the Frechet derivative of the exact flow, with the
@@ -688,21 +693,67 @@ def _dense(am: AffineMode) -> AffineMode:
     return am.dense() if isinstance(am, SparseAffineMode) else am
 
 
-class ExactIntegrator(Integrator):
+@dataclass(frozen=True, init=False)
+class Exact(Method):
     """The exact flow of affine modes: matrix exponentials and exact guard roots, for models whose
-    modes and guards are affine in the state with time only in sin/cos of one forcing frequency."""
+    modes and guards are affine in the state with time only in sin/cos of one forcing frequency.
+
+    It has no tolerances: its runs are exact to rounding, and so is the noise band of a guard of
+    a mode-level model. The guards of a system with components (network and ``sign()`` models)
+    still take a tolerance band, ``band_rtol`` and ``band_atol`` (see :meth:`guard_bands`).
+
+    Attributes
+    ----------
+    guard_noise : float
+        Safety factor on the rounding of a guard's value (:meth:`guard_band`): within it a guard
+        counts as zero at a switch and stays disarmed until it has left it.
+    band_rtol, band_atol : float
+        The band ``guard_noise x sum |dh/dy| (band_atol + band_rtol |y|)`` of the guards of a
+        system with components, within which a guard counts as zero at a switch (the switches of
+        several components at one instant are decided together). Default 1e-10 and 1e-12, the
+        tolerances the command line gave it before methods were objects (issue 29).
+
+    Examples
+    --------
+    >>> from hybrid import Exact, SolverOptions
+    >>> SolverOptions(method=Exact()).method
+    Exact(guard_noise=10.0, band_rtol=1e-10, band_atol=1e-12)
+    >>> Exact(rtol=1e-9)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hybrid.core.errors.InputTypeError: Exact: `rtol` does not apply: ...
+    """
+
+    guard_noise: float = 10.0
+    band_rtol: float = 1e-10
+    band_atol: float = 1e-12
 
     name = "exact"
-    exact = True
+    flows_exact = True
     needs_derivatives = False
     resolves_slaves = False
     runtime_parameters = True
-    broyden = False
-    coarse_stage = False
-    switch_time_newton = True
 
     #: Relative accuracy of one run of a map: rounding.
     NOISE_RTOL = 1e-15
+
+    def __init__(
+        self, *, guard_noise: float = 10.0, band_rtol: float = 1e-10, band_atol: float = 1e-12, **unexpected
+    ):
+        if unexpected:
+            tol = [k for k in unexpected if k in ("rtol", "atol", "atol_default", "max_num_steps")]
+            raise InputTypeError(
+                f"Exact: {', '.join(f'`{k}`' for k in unexpected)} "
+                + (
+                    "does not apply: the exact flow has no tolerances (its runs are exact to rounding); "
+                    "leave it out, or use IDA(rtol=..., atol=...) for a method with tolerances"
+                    if tol
+                    else "is not a setting of Exact (its settings: guard_noise, band_rtol, band_atol)"
+                )
+            )
+        for k, v in (("guard_noise", guard_noise), ("band_rtol", band_rtol), ("band_atol", band_atol)):
+            check_positive("Exact", k, v)
+            object.__setattr__(self, k, v)
 
     def check(self, cs: CompiledSystem) -> None:
         """Refuse a compiled system whose modes are not all affine (:func:`exact_flows`).
@@ -718,16 +769,16 @@ class ExactIntegrator(Integrator):
         """Refuse a model that is not affine at ``params`` (compiled at them for the check)."""
         exact_flows(CompiledSystem(system, params))
 
-    def noise_rtol(self, options: SolverOptions) -> float:
-        """:attr:`NOISE_RTOL`: the tolerances do not apply to the exact flow."""
+    @property
+    def noise_rtol(self) -> float:
+        """:attr:`NOISE_RTOL`: rounding (no tolerances apply to the exact flow)."""
         return self.NOISE_RTOL
 
     #: Relative rounding of a state of the exact flow and of a time, for the guards' noise band.
     ROUNDING = 1e-15
 
-    def guard_noise(
+    def guard_band(
         self,
-        options: SolverOptions,
         atol: np.ndarray,
         grad: np.ndarray,
         ht: float,
@@ -735,8 +786,8 @@ class ExactIntegrator(Integrator):
         y: np.ndarray,
         size: float,
     ) -> float:
-        """The rounding of a guard's value, not the tolerances' band: ``guard_noise x ROUNDING x
-        (sum |dh/dy| (|y| + size) + |dh/dt| |t|)``.
+        """The rounding of a guard's value, not a tolerances' band: ``guard_noise x ROUNDING x
+        (sum |dh/dy| (|y| + size) + |dh/dt| |t|)`` (``atol`` does not enter).
 
         The exact flow's state is right to the rounding of the matrix exponentials (relative to
         the state's size, ``size``) and the time to its own rounding; a band as wide as the
@@ -745,7 +796,16 @@ class ExactIntegrator(Integrator):
         resolves (a phase of 1e-13 s: ``tests/hybrid/test_bifurcation.py``).
         """
         scale = self.ROUNDING * (np.abs(y) + size)
-        return options.guard_noise * (float(np.abs(grad) @ scale) + abs(ht) * self.ROUNDING * abs(t)) + 1e-300
+        return self.guard_noise * (float(np.abs(grad) @ scale) + abs(ht) * self.ROUNDING * abs(t)) + 1e-300
+
+    def guard_bands(self, cm, atol: np.ndarray, t: float, y: np.ndarray, size: float) -> np.ndarray | None:
+        """The band of every guard of a composed mode at once, ``guard_noise x sum |dh/dy|
+        (band_atol + band_rtol |y|) + 1e-14``, or None where the mode has no batched gradients
+        (``atol`` does not enter)."""
+        fn = getattr(cm, "guard_noise_scale", None)
+        if fn is None:
+            return None
+        return self.guard_noise * fn(t, y, self.band_atol + self.band_rtol * np.abs(y)) + 1e-14
 
     def mode_solver(
         self,
@@ -753,7 +813,6 @@ class ExactIntegrator(Integrator):
         mode: int,
         options: SolverOptions,
         *,
-        atol: np.ndarray,
         max_step: float,
         first_step: float = 0.0,
     ) -> ExactModeSolver:

@@ -11,18 +11,24 @@ from __future__ import annotations
 
 import re
 import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.budget import Budget
-from ..core.errors import BudgetExceeded, IntegratorError
-from ..core.options import SolverOptions
+from ..core.errors import BudgetExceeded, InputError, InputTypeError, IntegratorError
+from ..core.options import check_positive
 from ..model.compiled import CompiledMode, CompiledSystem
 from ..model.linear import fast_dynamics
-from .base import ROOT, SUCCESS, TSTOP, Integrator, StepResult
+from .base import ROOT, SUCCESS, TSTOP, Method, StepResult
+
+if TYPE_CHECKING:
+    from .options import SolverOptions
 
 __all__ = [
-    "IDAIntegrator",
+    "IDA",
     "ModeSolver",
     "SensitivitySolver",
     "IDAVariational",
@@ -439,8 +445,10 @@ class IDAVariational:
     """IDA's variational solvers of one compiled system's modes (one :class:`SensitivitySolver`
     per mode, built on first use; see :meth:`IDAIntegrator.variational`)."""
 
-    def __init__(self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float):
-        self.cs, self.s, self.options, self.max_step = cs, s, options, max_step
+    def __init__(
+        self, cs: CompiledSystem, s: np.ndarray, method: IDA, options: SolverOptions, max_step: float
+    ):
+        self.cs, self.s, self.method, self.options, self.max_step = cs, s, method, options, max_step
         self.nb = len(cs.system.variable_names)
         self._solvers: dict[int, SensitivitySolver] = {}
 
@@ -453,9 +461,9 @@ class IDAVariational:
         """Mode ``m``'s solver (the free parameters are part of its state: ``extend`` is not needed)."""
         sv = self._solvers.get(m)
         if sv is None:
-            o = self.options
+            o = self.method
             n = self.cs.modes[m].n
-            atol = np.array(o.atol_vector(self.cs.names[: self.nb]) + [o.atol_default] * (n - self.nb))
+            atol = np.concatenate([o.atol_vector(self.cs.names[: self.nb]), [o.atol_default] * (n - self.nb)])
             sv = self._solvers[m] = SensitivitySolver(
                 self.cs.modes[m],
                 self.s,
@@ -463,27 +471,161 @@ class IDAVariational:
                 atol=atol,
                 atol_sens=o.rtol,
                 max_step=self.max_step,
-                max_num_steps=min(o.max_num_steps, o.max_steps),
+                max_num_steps=min(o.max_num_steps, self.options.max_steps),
             )
             sv.period = self.cs.period
         return sv
 
 
-class IDAIntegrator(Integrator):
-    """SUNDIALS IDA: any model, to the tolerances of :class:`hybrid.SolverOptions`."""
+@dataclass(frozen=True, init=False)
+class IDA(Method):
+    """SUNDIALS IDA (through scikit-sundae): any model, to its tolerances.
+
+    Attributes
+    ----------
+    rtol : float
+        Relative tolerance (1e-14 <= rtol <= 1e-2).
+    atol : float or mapping of str to float
+        Absolute tolerance, one value or per variable name (unnamed variables get
+        ``atol_default``).
+    atol_default : float
+        Absolute tolerance of variables not named in a mapping ``atol``.
+    max_num_steps : int
+        Internal steps IDA may take per call (the engine goes on from where a call stopped,
+        within ``SolverOptions.max_steps``).
+    guard_noise : float
+        Safety factor on the noise level of a guard, ``sum_j |dh/dy_j| (atol_j + rtol |y_j|)``:
+        within it a guard counts as zero at a switch and stays disarmed until it has left it.
+
+    Examples
+    --------
+    >>> from hybrid import IDA, SolverOptions
+    >>> SolverOptions(method=IDA(rtol=1e-9, atol=1e-11)).method.noise_rtol
+    1e-09
+    """
+
+    rtol: float = 1e-8
+    atol: float | Mapping[str, float] = 1e-10
+    atol_default: float = 1e-10
+    max_num_steps: int = 50_000
+    guard_noise: float = 10.0
+    _atol_map: Mapping[str, float] | None = field(default=None, init=False, repr=False, compare=False)
 
     name = "ida"
-    exact = False
+    flows_exact = False
     needs_derivatives = True
     resolves_slaves = True
     runtime_parameters = False
-    broyden = True
-    coarse_stage = True
-    switch_time_newton = False
 
-    def noise_rtol(self, options: SolverOptions) -> float:
-        """``options.rtol``: IDA controls each step's error relative to the state."""
-        return options.rtol
+    def __init__(
+        self,
+        *,
+        rtol: float = 1e-8,
+        atol: float | Mapping[str, float] = 1e-10,
+        atol_default: float = 1e-10,
+        max_num_steps: int = 50_000,
+        guard_noise: float = 10.0,
+        **unexpected,
+    ):
+        if unexpected:
+            raise InputTypeError(
+                f"IDA: no setting {', '.join(map(repr, unexpected))}; settings: rtol, atol, atol_default, "
+                "max_num_steps, guard_noise (the run's budgets and step bound are SolverOptions')"
+            )
+        check_positive("IDA", "rtol", rtol)
+        if not 1e-14 <= rtol <= 1e-2:
+            raise InputError(f"IDA: `rtol` must lie in [1e-14, 1e-2], got {rtol!r}")
+        amap = None
+        if isinstance(atol, Mapping):
+            for k, v in atol.items():
+                check_positive("IDA", f"atol[{k!r}]", v)
+            amap = dict(atol)
+        else:
+            check_positive("IDA", "atol", atol)
+        check_positive("IDA", "atol_default", atol_default)
+        check_positive("IDA", "guard_noise", guard_noise)
+        if isinstance(max_num_steps, bool) or not isinstance(max_num_steps, int) or max_num_steps < 1:
+            raise InputError(f"IDA: `max_num_steps` must be an integer >= 1, got {max_num_steps!r}")
+        for k, v in (
+            ("rtol", rtol),
+            ("atol", atol),
+            ("atol_default", atol_default),
+            ("max_num_steps", max_num_steps),
+            ("guard_noise", guard_noise),
+            ("_atol_map", amap),
+        ):
+            object.__setattr__(self, k, v)
+
+    def __hash__(self) -> int:
+        atol = tuple(sorted(self._atol_map.items())) if self._atol_map is not None else self.atol
+        return hash((self.rtol, atol, self.atol_default, self.max_num_steps, self.guard_noise))
+
+    def settings(self) -> dict:
+        """Its settings as plain data (``atol`` a dict where it is a mapping)."""
+        return {
+            "name": self.name,
+            "rtol": self.rtol,
+            "atol": dict(self._atol_map) if self._atol_map is not None else self.atol,
+            "atol_default": self.atol_default,
+            "max_num_steps": self.max_num_steps,
+            "guard_noise": self.guard_noise,
+        }
+
+    def atol_vector(self, names: Sequence[str]) -> np.ndarray:
+        """Absolute tolerance per variable, in ``names`` order.
+
+        Raises
+        ------
+        hybrid.core.errors.InputError
+            ``atol`` names a variable that is not in ``names``.
+        """
+        if self._atol_map is None:
+            return np.full(len(names), float(self.atol))
+        unknown = set(self._atol_map) - set(names)
+        if unknown:
+            raise InputError(
+                f"IDA: `atol` names unknown variable(s) {sorted(unknown)}; variables: {list(names)}"
+            )
+        return np.array([float(self._atol_map.get(n, self.atol_default)) for n in names])
+
+    def _scaled(self, f: float, rtol: float) -> IDA:
+        atol = {k: v * f for k, v in self._atol_map.items()} if self._atol_map is not None else self.atol * f
+        return IDA(
+            rtol=rtol,
+            atol=atol,
+            atol_default=self.atol_default * f,
+            max_num_steps=self.max_num_steps,
+            guard_noise=self.guard_noise,
+        )
+
+    def tightened(self, factor: float) -> IDA:
+        """This method at tolerances ``factor`` times tighter (relative and absolute alike)."""
+        return self._scaled(1.0 / factor, self.rtol / factor)
+
+    def loosened_to(self, rtol: float) -> IDA | None:
+        """This method at the looser ``rtol`` (absolute tolerances scaled alike); None where
+        ``rtol`` is not at least 100 times looser than its own (nothing to save)."""
+        if rtol < 100.0 * self.rtol:
+            return None
+        return self._scaled(rtol / self.rtol, rtol)
+
+    @property
+    def noise_rtol(self) -> float:
+        """``rtol``: IDA controls each step's error relative to the state."""
+        return self.rtol
+
+    def guard_band(self, atol, grad, ht, t, y, size) -> float:
+        """``guard_noise x sum |dh/dy| (atol + rtol |y|) + 1e-14``: the accuracy of the state the
+        tolerances allow, carried to the guard (see :meth:`hybrid.integrators.base.Method.guard_band`)."""
+        scale = atol + self.rtol * np.abs(y)
+        return self.guard_noise * float(np.abs(grad) @ scale) + 1e-14
+
+    def guard_bands(self, cm, atol, t, y, size) -> np.ndarray | None:
+        """:meth:`guard_band` of every guard of a composed mode at once (None: no batched gradients)."""
+        fn = getattr(cm, "guard_noise_scale", None)
+        if fn is None:
+            return None
+        return self.guard_noise * fn(t, y, atol + self.rtol * np.abs(y)) + 1e-14
 
     def mode_solver(
         self,
@@ -491,7 +633,6 @@ class IDAIntegrator(Integrator):
         mode: int,
         options: SolverOptions,
         *,
-        atol: np.ndarray,
         max_step: float,
         first_step: float = 0.0,
     ) -> ModeSolver:
@@ -501,18 +642,18 @@ class IDAIntegrator(Integrator):
         # Slave variables are re-solved at every sample and switch; in IDA's error test their
         # absolute tolerance is floored at rtol: a far tighter one on a slave variable crossing
         # zero makes IDA stall in step-size cycles (tests/hybrid: nonlinear_dae).
-        atol = np.array(atol, dtype=float)
-        atol[cm.alg_idx] = np.maximum(atol[cm.alg_idx], options.rtol)
-        max_num_steps = min(options.max_num_steps, options.max_steps)
+        atol = self.atol_vector(cs.system.variable_names)
+        atol[cm.alg_idx] = np.maximum(atol[cm.alg_idx], self.rtol)
+        max_num_steps = min(self.max_num_steps, options.max_steps)
         shared = cs.solvers
-        skey = (mode, first_step, options.rtol, atol.tobytes(), max_step, max_num_steps)
+        skey = (mode, first_step, self.rtol, atol.tobytes(), max_step, max_num_steps)
         s = shared.get(skey)
         if s is None:
             if len(shared) >= MAX_SHARED_SOLVERS:
                 shared.clear()
             s = shared[skey] = ModeSolver(
                 cm,
-                rtol=options.rtol,
+                rtol=self.rtol,
                 atol=atol,
                 max_step=max_step,
                 max_num_steps=max_num_steps,
@@ -537,4 +678,4 @@ class IDAIntegrator(Integrator):
         self, cs: CompiledSystem, s: np.ndarray, options: SolverOptions, max_step: float
     ) -> IDAVariational:
         """IDA on each mode's DAE with its variational equations (:class:`SensitivitySolver`)."""
-        return IDAVariational(cs, s, options, max_step)
+        return IDAVariational(cs, s, self, options, max_step)

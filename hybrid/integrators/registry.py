@@ -1,41 +1,46 @@
-"""The integrators by name: :func:`integrator` (``SolverOptions.integrator`` -> :class:`Integrator`).
+"""The integration methods by name, for the command line's ``--integrator``: :func:`method_named`.
 
-``SolverOptions.integrator`` is a name (validated against :data:`hybrid.core.options.INTEGRATORS`,
-which equals :data:`NAMES`: :mod:`hybrid.core` does not import this layer); everything that
-depends on it asks the :class:`~hybrid.integrators.base.Integrator` found here.
+In Python a method is passed as an object (``SolverOptions(method=IDA(rtol=1e-9))``); the name
+serves where only text is at hand (the command line, a job description, a result file).
 
->>> from hybrid import SolverOptions
->>> from hybrid.integrators.registry import integrator
->>> opts = SolverOptions(rtol=1e-9, integrator="exact")
->>> integ = integrator(opts.integrator)
->>> integ.exact, integ.noise_rtol(opts), integrator("ida").noise_rtol(opts)
-(True, 1e-15, 1e-09)
+>>> from hybrid.integrators.registry import method_named, NAMES
+>>> NAMES
+('ida', 'exact')
+>>> method_named("ida", rtol=1e-9)
+IDA(rtol=1e-09, atol=1e-10, atol_default=1e-10, max_num_steps=50000, guard_noise=10.0)
+>>> method_named("exact").noise_rtol
+1e-15
 """
 
 from __future__ import annotations
 
 from ..core.errors import InputError
-from .base import Integrator
-from .exact import ExactIntegrator
-from .ida import IDAIntegrator
+from .base import Method
+from .exact import Exact
+from .ida import IDA
 
-__all__ = ["integrator", "NAMES", "Integrator", "IDAIntegrator", "ExactIntegrator"]
+__all__ = ["method_named", "NAMES", "METHODS"]
 
-_REGISTRY: dict[str, Integrator] = {i.name: i for i in (IDAIntegrator(), ExactIntegrator())}
+#: The methods' classes by name, the default first.
+METHODS: dict[str, type[Method]] = {cls.name: cls for cls in (IDA, Exact)}
 
-#: The integrators' names, the default first.
-NAMES: tuple[str, ...] = tuple(_REGISTRY)
+#: The methods' names, the default first.
+NAMES: tuple[str, ...] = tuple(METHODS)
 
 
-def integrator(name: str) -> Integrator:
-    """The integrator called ``name`` (one of :data:`NAMES`).
+def method_named(name: str, **settings) -> Method:
+    """The method called ``name`` (one of :data:`NAMES`) with ``settings`` (its own: IDA's
+    tolerances; a setting the method does not take is refused).
 
     Raises
     ------
     hybrid.core.errors.InputError
         An unknown name.
+    hybrid.core.errors.InputTypeError
+        A setting the method does not take (e.g. ``rtol`` for ``"exact"``).
     """
     try:
-        return _REGISTRY[name]
+        cls = METHODS[name]
     except (KeyError, TypeError):
-        raise InputError(f"no integrator `{name}`; integrators: {', '.join(NAMES)}") from None
+        raise InputError(f"no integration method `{name}`; methods: {', '.join(NAMES)}") from None
+    return cls(**settings)

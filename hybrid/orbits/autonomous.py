@@ -31,10 +31,11 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ParameterOutOfDomain
-from ..core.options import ShootingOptions, SolverOptions, reject_keywords
+from ..core.options import ShootingOptions, reject_keywords
 from ..core.status import SolveStatus
 from ..core.threads import with_blas_threads
 from ..engine.simulate import initial_state
+from ..integrators.options import SolverOptions
 from ..model.orbit_hints import period_guess
 from ..model.system import HybridSystem
 from .flowmap import Evaluation, FlowMap
@@ -427,7 +428,7 @@ def finish(solver: AutonomousSolver, y, mode, T, ev: Evaluation, it, res, sample
     nd = {m.name: sum(1 for i in fm.s if m.is_diff[i]) for m in fm.cs.modes}
     visited = {mode} | {e.target for e in ev.events}
     n_struct = ns - min(nd[m] for m in visited)
-    mtol = max(1e-6, 100.0 * fm.options.rtol)
+    mtol = max(1e-6, 100.0 * fm.method.noise_rtol)
     mult, kinds, verdict, trivial = classify(mult, vecs, f0s, n_struct, mtol)
     ext = _Extrema(fm.cs, tr)
     amp, hpp = {}, {}

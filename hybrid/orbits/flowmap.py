@@ -23,11 +23,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, ModelError, SimulationError
-from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
 from ..engine.variational import Sensitivity, guard_index, saltation
-from ..integrators.registry import integrator
+from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem, lend
 from ..model.system import HybridSystem
 
@@ -102,14 +101,14 @@ class FlowMap:
         self.free = free
         self.params = system.parameter_values(params)
         self.options = replace(options, max_step=options.max_step or float(time_scale) / 16.0)
-        self.integrator = integrator(options.integrator)
-        if self.integrator.runtime_parameters:
+        self.method = options.method
+        if self.method.runtime_parameters:
             self.cs, self._release = lend(system, self.params, self, every_parameter=True)
         elif free:
             self.cs = CompiledSystem(system, self.params, runtime=(free,))  # its own: free read at run time
         else:
             self.cs, self._release = lend(system, self.params, self)
-        self.integrator.check(self.cs)  # refused before any run (e.g. not affine)
+        self.method.check(self.cs)  # refused before any run (e.g. not affine)
         if self.cs.depends_on_time():
             raise ModelError(
                 f"model `{system.name}` depends on t but declares no forcing period: an autonomous "

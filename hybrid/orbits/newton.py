@@ -10,8 +10,7 @@ residual has reached the noise of the map.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -136,10 +135,8 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     stalled = False  # the exact Newton step vanishes while the residual does not
     J_here = False  # J is the exact one at the current iterate
     M_y = None  # the monodromy at y at the requested tolerances, if made (the result's, if y is)
-    integ = shooter.integrator
-    # Broyden's updates save variational runs of IDA; the exact integrator's monodromy is cheap
-    # and its exact Newton steps reach rounding.
-    broyden = BROYDEN and integ.broyden
+    policy = NewtonPolicy.for_method(shooter.method)
+    broyden = policy.broyden
     # Relative accuracy of one run of the map (the exact integrator's is rounding).
     noise_rtol = shooter.noise_rtol
     settle = False  # the residual met the tolerance and a further correction found no decrease
@@ -159,7 +156,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
         res_norm = float(np.max(np.abs(r))) / scale
         if sh is coarse and (it >= max_iter or scale > 1e3 * max(scale0, 1e-300)):
             return None
-        if sh is coarse and res_norm <= COARSE_SWITCH * coarse.options.rtol:
+        if sh is coarse and res_norm <= COARSE_SWITCH * coarse.noise_rtol:
             # Near the coarse map's noise: from here on the requested map. Its first Newton step
             # takes I - M from the coarse run here (accurate to about its rtol, made only if
             # needed); Broyden's updates follow from runs of the requested accuracy only.
@@ -167,7 +164,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             continue
         if (
             not seq_tried
-            and integ.switch_time_newton
+            and policy.switch_time_newton
             and res_norm > tol
             and it < max_iter
             and tr.mode_final == mode0
@@ -187,7 +184,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             and picked.size > 0
             and float(np.max(np.abs(g.values[picked]))) > tol * scale
         )
-        if res_norm <= tol and not gauge_bad and J is None and integ.exact and 0 < it < max_iter:
+        if res_norm <= tol and not gauge_bad and J is None and policy.cheap_jacobian and 0 < it < max_iter:
             # the exact integrator: judge the correction with the exact Jacobian here (cheap)
             M_y = shooter.monodromy(tr)
             J, J_here = M_y[np.ix_(nw.pos, nw.pos)] - np.eye(d.size), True
@@ -196,7 +193,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
             and not gauge_bad
             and not settle
             and M_y is None
-            and not integ.exact
+            and not policy.cheap_jacobian
             and it < max_iter
             and tr.mode_final == mode0
         ):
@@ -427,13 +424,11 @@ def coarse_shooter(shooter: Shooter, tol: float) -> Shooter | None:
     """The period map at the looser tolerance ``COARSE_RTOL`` (absolute tolerances scaled alike),
     for the first Newton iterations on the IDA path; None where it would not save anything (the
     exact integrator, a requested rtol already near it, or a tolerance it cannot approach)."""
-    o = shooter.options
     rc = COARSE_RTOL
-    if not shooter.integrator.coarse_stage or rc < 100.0 * o.rtol or COARSE_SWITCH * rc <= 10.0 * tol:
+    loose = shooter.method.loosened_to(rc) if NewtonPolicy.for_method(shooter.method).coarse_stage else None
+    if loose is None or COARSE_SWITCH * rc <= 10.0 * tol:
         return None
-    f = rc / o.rtol
-    atol = {k: v * f for k, v in o.atol.items()} if isinstance(o.atol, Mapping) else o.atol * f
-    opts = replace(o, rtol=rc, atol=atol, atol_default=o.atol_default * f)
+    opts = shooter.options.with_method(loose)
     return Shooter(shooter.system, shooter.params, opts, shooter.free, shooter.periods)
 
 
@@ -457,8 +452,46 @@ def _settled(J, r, tol: float, scale: float, rcond: float, rtol: float, it: int,
 SETTLE_NOISE = 10.0
 
 
-#: Broyden's updates of I - M between exact monodromies on the IDA path (False: exact Newton).
+#: Broyden's updates of I - M between exact monodromies where a monodromy costs a variational run
+#: with tolerances (False: exact Newton everywhere).
 BROYDEN = True
+
+
+@dataclass(frozen=True)
+class NewtonPolicy:
+    """Which stages of Newton's method on a period map apply, chosen from the method's capabilities.
+
+    Attributes
+    ----------
+    broyden : bool
+        Update ``I - M`` by Broyden's rule between monodromies: each monodromy is a variational
+        run at the method's tolerances (IDA), worth saving; an exact monodromy is cheap and its
+        exact Newton steps reach rounding.
+    coarse_stage : bool
+        Start at looser tolerances (:func:`coarse_shooter`): the method has tolerances to loosen.
+    switch_time_newton : bool
+        Solve for the switch times of a run's sequence (:mod:`hybrid.orbits.sequence`): the flows
+        are exact, so a sequence's switch times are roots of exact functions.
+    cheap_jacobian : bool
+        Judge a correction that meets the tolerance with the exact Jacobian there (cheap where
+        the flows are exact); else the monodromy is made only where the result needs it.
+    """
+
+    broyden: bool
+    coarse_stage: bool
+    switch_time_newton: bool
+    cheap_jacobian: bool
+
+    @classmethod
+    def for_method(cls, method) -> NewtonPolicy:
+        """The policy for ``method`` (a :class:`hybrid.integrators.base.Method`)."""
+        exact = method.flows_exact
+        return cls(
+            broyden=BROYDEN and not exact,
+            coarse_stage=not exact,
+            switch_time_newton=exact,
+            cheap_jacobian=exact,
+        )
 
 
 #: Relative tolerance of the coarse runs of the map (the first Newton iterations on the IDA path).

@@ -15,10 +15,12 @@ import numpy as np
 
 from ..core.balance import balance
 from ..core.errors import InputError, InputTypeError, ModelError
-from ..core.options import ShootingOptions, SolverOptions
+from ..core.options import ShootingOptions
 from ..core.scalar import bounded_minimum
 from ..core.status import SolveStatus
 from ..engine.trajectory import Trajectory, sampled_trajectory
+from ..integrators.ida import IDA
+from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 
@@ -26,7 +28,7 @@ __all__ = ["stability_text", "PeriodicOrbit", "ORBIT_OPTIONS"]
 
 #: Default tolerances for periodic orbits (tighter than for plain simulation:
 #: the error of a weakly damped orbit is the integration error times cond(I - M)).
-ORBIT_OPTIONS = SolverOptions(rtol=1e-10, atol=1e-12)
+ORBIT_OPTIONS = SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))
 
 
 @dataclass(frozen=True)
@@ -622,11 +624,11 @@ def finish_orbit(
     nd = {m.name: sum(1 for i in s if m.is_diff[i]) for m in shooter.cs.modes}
     visited = {mode0} | {e.target for e in tr.events}
     n_struct = ns - min(nd[m] for m in visited)
-    mtol = max(1e-6, 100.0 * shooter.options.rtol)
+    mtol = max(1e-6, 100.0 * shooter.noise_rtol)
     mult, kinds, verdict = _classify(mult, n_struct, family, mtol, q)
     # Amplitudes (variables and outputs): extrema located on the flow, not read from samples.
     amp, hpp = {}, {}
-    ext = _Extrema(shooter.cs, tr, shooter.integrator.exact_flows(shooter.cs))
+    ext = _Extrema(shooter.cs, tr, shooter.method.exact_flows(shooter.cs))
     series = {n: tr.y[:, i] for i, n in enumerate(names) if n not in sys_.quadratures}
     series.update({o: tr.outputs[o] for o in sys_.outputs})
     for n, x in series.items():
@@ -686,7 +688,7 @@ def finish_orbit(
     elif err > 1e-6:
         msg += f"I - M is ill-conditioned (cond {cond:.3g}): the orbit's state is accurate to about " + (
             f"cond x rtol = {err:.2g} (relative); tighten rtol for more; "
-            if not shooter.integrator.exact
+            if not shooter.method.flows_exact
             else f"cond x rounding = {err:.2g} (relative); "
         )
     if not reason and not res_norm <= tol:

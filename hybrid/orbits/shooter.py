@@ -14,11 +14,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..core.errors import BudgetExceeded, ModelError, ParameterOutOfDomain
-from ..core.options import SolverOptions
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
 from ..engine.variational import Sensitivity
-from ..integrators.registry import integrator
+from ..integrators.options import SolverOptions
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledSystem, lend
 from ..model.expr import diff
@@ -45,8 +44,8 @@ class Shooter:
 
     Attributes
     ----------
-    integrator : hybrid.integrators.base.Integrator
-        The integrator of ``options.integrator``.
+    method : hybrid.integrators.base.Method
+        The integration method, ``options.method``.
     """
 
     def __init__(
@@ -60,11 +59,11 @@ class Shooter:
         self.system = system
         self.options = options
         self.periods = int(periods)
-        self.integrator = integrator(options.integrator)
+        self.method = options.method
         self.free = free
         self.names = system.variable_names
         self.set_params(params)
-        self.integrator.check(self.cs)  # refused before any run (e.g. not affine: NotAffineError)
+        self.method.check(self.cs)  # refused before any run (e.g. not affine: NotAffineError)
         # Without a free parameter the variational runs use the same compiled system.
         self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
         T = self.period
@@ -107,7 +106,7 @@ class Shooter:
         release = getattr(self, "_release", None)
         if release is not None:
             release()
-        if self.integrator.runtime_parameters:
+        if self.method.runtime_parameters:
             # every parameter read at call time: the exact flows come from the affine analysis
             cs, self._release = lend(self.system, self.params, self, every_parameter=True)
         elif self.free is not None:
@@ -120,7 +119,7 @@ class Shooter:
     @property
     def noise_rtol(self) -> float:
         """Relative accuracy of one run of the map: ``rtol`` (IDA), rounding (the exact integrator)."""
-        return self.integrator.noise_rtol(self.options)
+        return self.method.noise_rtol
 
     def dT(self) -> float:
         """d(period)/d(free parameter)."""

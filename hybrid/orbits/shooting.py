@@ -33,10 +33,11 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError
-from ..core.options import ShootingOptions, SolverOptions
+from ..core.options import ShootingOptions
 from ..core.threads import with_blas_threads
 from ..engine.simulate import check_initial_state, check_time_range, initial_state, run_compiled
 from ..engine.trajectory import Status
+from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
 from .newton import newton
 from .orbit import (

@@ -97,13 +97,20 @@ def _grid(res: SweepResult, ix: int, iy: int | None) -> tuple[np.ndarray, np.nda
     return peak, code
 
 
+def _method_name(options: dict) -> str:
+    """The integration method's name in a manifest's options (``integrator`` in folders written
+    before methods were objects, issue 29)."""
+    method = options.get("method")
+    return method.get("name", "?") if isinstance(method, dict) else str(options.get("integrator", "?"))
+
+
 def _title(res: SweepResult) -> str:
     m = res.manifest
     lo, hi = m["p_range"]
     fixed = ", ".join(f"{k}={v:g}" for k, v in m["params"].items() if k != m["parameter"])
     return (
         f"{m['model']}: peak of {m['coordinate']} (half peak-to-peak) for {m['parameter']} in "
-        f"[{lo:.4g}, {hi:.4g}]\n{fixed}; integrator {m['options']['integrator']}"
+        f"[{lo:.4g}, {hi:.4g}]\n{fixed}; integrator {_method_name(m['options'])}"
     )
 
 

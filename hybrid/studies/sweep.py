@@ -47,10 +47,12 @@ from ..core.budget import current_deadline, deadline_passed, limit_text, restore
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.files import FolderLock, write_atomic
-from ..core.options import ContinuationOptions, SolverOptions
+from ..core.options import ContinuationOptions
 from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
 from ..engine.io import to_json
+from ..integrators.base import Method
+from ..integrators.options import SolverOptions
 from ..model.elements import Component, Mode, Parameter, Transition, Variable
 from ..model.expr import Expr, from_data, to_data
 from ..model.plot_hints import plot_hints
@@ -455,7 +457,12 @@ def _identity(manifest: Mapping) -> dict:
 
 
 def _options_dict(o) -> dict:
-    return {f.name: _plain(getattr(o, f.name)) for f in fields(o)}
+    """Options as plain data; a method as its settings (``{"name": "ida", "rtol": ...}``)."""
+    out = {}
+    for f in fields(o):
+        v = getattr(o, f.name)
+        out[f.name] = v.settings() if isinstance(v, Method) else _plain(v)
+    return out
 
 
 @dataclass

@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 
-from hybrid import HybridSystem, Mode, Parameter, SolverOptions, Transition, Variable
+from hybrid import IDA, HybridSystem, Mode, Parameter, SolverOptions, Transition, Variable
 
 #: Tolerances for the closed-form comparisons (the lead's tests use the same).
-TIGHT = SolverOptions(rtol=1e-11, atol=1e-13)
+TIGHT = SolverOptions(method=IDA(rtol=1e-11, atol=1e-13))
 
 
 def scaled_error(y, y_true, rtol: float, atol: float) -> float:

@@ -12,7 +12,7 @@ from orbit_problems import forced_linear_2dof
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit, simulate
+from hybrid import IDA, Exact, SolverOptions, periodic_orbit, simulate
 
 
 def closed_form_amplitudes(p: dict) -> dict[str, float]:
@@ -52,7 +52,7 @@ def test_sampled_maximum_alone_would_miss_the_closed_form():
 def test_stick_slip_amplitudes_match_a_dense_tight_resimulation():
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.854)
-    tight = SolverOptions(rtol=1e-12, atol=1e-14)
+    tight = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
     o = periodic_orbit(
         system, p, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
     )
@@ -85,8 +85,8 @@ def test_an_extremum_just_after_a_switch_is_found():
     v1'' h^2 / 8 ~ 1e-10 relative)."""
     system = hybrid_models.isolator()
     p = system.preset("standard", Omega=0.8528166451871718)
-    tight = SolverOptions(rtol=1e-12, atol=1e-14)
-    o = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))
+    tight = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
+    o = periodic_orbit(system, p, options=SolverOptions(method=Exact()))
     assert o.converged, o.message
     x0 = dict(zip(system.variable_names, o.x0, strict=True))
     dense = simulate(
@@ -113,7 +113,7 @@ def test_an_extreme_sample_at_the_end_of_the_period_is_refined_across_the_wrap()
         system,
         p,
         (0.5, 1.5),
-        options=SolverOptions(integrator="exact"),
+        options=SolverOptions(method=Exact()),
         settings=ContinuationOptions(locate=False),
     )
     orbits = [o for b in fr.branches for o in b.points]

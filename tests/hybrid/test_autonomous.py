@@ -13,6 +13,7 @@ import pytest
 
 import hybrid
 from hybrid import (
+    IDA,
     HybridSystem,
     Mode,
     ModelError,
@@ -24,7 +25,7 @@ from hybrid import (
 )
 from hybrid.orbits.flowmap import FlowMap
 
-TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
+TIGHT = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 
 
 def stuart_landau(period_guess: str | None = "2*pi/w", section: bool = False) -> HybridSystem:

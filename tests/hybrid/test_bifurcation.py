@@ -10,13 +10,13 @@ import pytest
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, continue_locus, continue_orbits, switch_branch
+from hybrid import Exact, SolverOptions, continue_locus, continue_orbits, switch_branch
 from hybrid.cli import main
 from hybrid.core.errors import InputError
 from hybrid_models.classics import shaw_branch_point, shaw_symmetric_orbit
 from hybrid_models.linear import band_edges
 
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,7 @@ import hybrid
 import hybrid.core.budget as budget_mod
 import hybrid_models
 from hybrid import (
+    IDA,
     BudgetExceeded,
     HybridSystem,
     Mode,
@@ -110,7 +111,7 @@ def test_ida_calls_that_stop_at_their_own_step_limit_are_bounded_by_max_steps(ca
     # without a total budget that loop is unbounded.
     system, p = coulomb_forced()
     T = 2 * math.pi / p["Omega"]
-    opts = SolverOptions(max_num_steps=2, max_steps=500)
+    opts = SolverOptions(method=IDA(max_num_steps=2), max_steps=500)
     tr = simulate(system, p, (0.0, 100 * T), rest(system), t_eval=[0.0, 100 * T], options=opts, throw=False)
     assert tr.status == Status.STEP_LIMIT
     assert "max_steps = 500" in tr.message
@@ -217,7 +218,7 @@ def test_periodic_orbit_reports_a_step_limit_as_not_converged():
     o = periodic_orbit(
         system,
         p,
-        options=SolverOptions(rtol=1e-10, max_steps=60),
+        options=SolverOptions(method=IDA(rtol=1e-10), max_steps=60),
         settings=hybrid.ShootingOptions(transient_periods=0),
     )
     assert not o.converged

@@ -20,6 +20,7 @@ import pytest
 
 import hybrid
 from hybrid import (
+    IDA,
     ContinuationOptions,
     SolverOptions,
     continue_orbits,
@@ -31,7 +32,7 @@ from hybrid.cli import main
 from hybrid.continuation.coldstart import find_by_continuation
 from hybrid.model.linear import natural_frequencies
 
-TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
+TIGHT = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 
 
 def _route_start(route: str) -> float:

@@ -19,11 +19,22 @@ from chains import chain_params, composed_chain, enumerated_chain
 
 import hybrid
 import hybrid.integrators.assembly as assembly
-from hybrid import Component, HybridSystem, Mode, SolverOptions, Transition, Variable, simulate
+from hybrid import (
+    IDA,
+    Component,
+    Exact,
+    HybridSystem,
+    Mode,
+    SolverOptions,
+    Transition,
+    Variable,
+    method_named,
+    simulate,
+)
 from hybrid.model.compiled import CompiledSystem
 
-EXACT = SolverOptions(integrator="exact")
-TIGHT = SolverOptions(rtol=1e-11, atol=1e-13)
+EXACT = SolverOptions(method=Exact())
+TIGHT = SolverOptions(method=IDA(rtol=1e-11, atol=1e-13))
 DATA = Path(__file__).parent / "data"
 
 
@@ -271,7 +282,9 @@ def test_a_composed_orbit_equals_the_enumerated_one(integrator):
     # test_the_monodromy_of_a_composed_orbit_against_finite_differences.)
     n = 3
     p = chain_params(n, R3=0.25)
-    options = SolverOptions(integrator=integrator, rtol=1e-11, atol=1e-13)
+    options = SolverOptions(
+        method=(IDA(rtol=1e-11, atol=1e-13) if integrator == "ida" else method_named(integrator))
+    )
     a = hybrid.periodic_orbit(composed_chain(n), p, options=options)
     b = hybrid.periodic_orbit(enumerated_chain(n), p, options=options)
     assert a.converged, a.message

@@ -71,7 +71,11 @@ def test_friction_loss_of_stick_located_to_1e8(integrator):
         params,
         "Omega",
         (0.56, 0.62),
-        options=hybrid.SolverOptions(integrator=integrator, rtol=1e-10, atol=1e-12),
+        options=hybrid.SolverOptions(
+            method=(
+                hybrid.IDA(rtol=1e-10, atol=1e-12) if integrator == "ida" else hybrid.method_named(integrator)
+            )
+        ),
         settings=hybrid.ContinuationOptions(ds=0.02, ds_max=0.05, samples_per_period=64),
     )
     assert br.status == "completed", br.message
@@ -394,7 +398,7 @@ def test_leaving_a_band_lands_on_the_gauge_member_not_on_a_grazing_one():
 
     system = hybrid_models.absorber()
     p = system.preset("standard")
-    br = continue_orbits(system, p, "Omega", (0.852, 0.858), options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", (0.852, 0.858), options=SolverOptions(method=hybrid.Exact()))
     assert br.status == "completed", br.message
     band = max(o.transitions_per_period for o in br.points)
     assert band == 4
@@ -437,7 +441,7 @@ def test_slip_onset_and_loss_located_at_the_closed_form_crossings(window):
 
     system = hybrid_models.absorber()
     p = system.preset("standard")
-    br = continue_orbits(system, p, "Omega", window, options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", window, options=SolverOptions(method=hybrid.Exact()))
     assert br.status == "completed", br.message
     refs = _slip_boundaries(p, *window)
     changes = [s for s in br.special if s.kind in ("mode-gained", "mode-lost")]

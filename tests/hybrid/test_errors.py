@@ -16,9 +16,11 @@ import pytest
 import hybrid
 import hybrid_models
 from hybrid import (
+    IDA,
     AlgebraicSolveError,
     BudgetExceeded,
     ConvergenceError,
+    Exact,
     ExpressionError,
     GrazingSwitchError,
     HybridError,
@@ -199,8 +201,8 @@ def _relay(guard: str = "sign(v)", reset: dict | None = None) -> HybridSystem:
 def test_input_error_for_a_bad_argument():
     with pytest.raises(InputError, match=r"`t_span` must be finite with t1 > t0, got \(1.0, 1.0\)"):
         simulate(_oscillator(), {"w": 2.0}, (1.0, 1.0), {"x": 1.0, "v": 0.0})
-    with pytest.raises(InputError, match=r"SolverOptions: `rtol` must lie in \[1e-14, 1e-2\], got 1.0"):
-        SolverOptions(rtol=1.0)
+    with pytest.raises(InputError, match=r"IDA: `rtol` must lie in \[1e-14, 1e-2\], got 1.0"):
+        SolverOptions(method=IDA(rtol=1.0))
 
 
 def test_input_type_error_for_an_argument_of_the_wrong_type():
@@ -240,7 +242,7 @@ def test_not_affine_error_from_the_exact_integrator():
             {"w": 2.0},
             (0.0, 1.0),
             {"x": 1.0, "v": 0.0},
-            options=SolverOptions(integrator="exact"),
+            options=SolverOptions(method=Exact()),
         )
 
 
@@ -353,7 +355,7 @@ def test_worker_error_when_a_worker_ends_without_a_result(monkeypatch):
             system,
             system.preset("standard"),
             (0.85, 1.175),
-            options=SolverOptions(integrator="exact"),
+            options=SolverOptions(method=Exact()),
             workers=2,
         )
 

@@ -12,7 +12,17 @@ import pytest
 
 import hybrid
 import hybrid_models
-from hybrid import HybridSystem, Mode, NotAffineError, SolverOptions, Transition, simulate
+from hybrid import (
+    IDA,
+    Exact,
+    HybridSystem,
+    Mode,
+    NotAffineError,
+    SolverOptions,
+    Transition,
+    method_named,
+    simulate,
+)
 from hybrid.integrators.affine import affine_mode, affine_system
 from hybrid.integrators.base import ROOT, TSTOP
 from hybrid.integrators.exact import ExactModeSolver
@@ -211,8 +221,8 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
     from hybrid import SolverOptions, periodic_orbit
 
     system = getattr(hybrid_models, name)()
-    tight = SolverOptions(rtol=1e-12, atol=1e-14)
-    exact = SolverOptions(integrator="exact")
+    tight = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
+    exact = SolverOptions(method=Exact())
     prev = None
     for om in omegas:
         p = system.preset(preset, Omega=om)
@@ -304,7 +314,7 @@ def test_exact_integrator_refuses_a_non_affine_model_before_running():
 
     system = _oscillator(extra={"v": "-w0**2*x**3"})
     with pytest.raises(NotAffineError, match=r"mode `free`: derivative of `v` is not affine in `x`"):
-        simulate(system, PARAMS, (0.0, 1.0), {"x": 1.0, "v": 0.0}, options=SolverOptions(integrator="exact"))
+        simulate(system, PARAMS, (0.0, 1.0), {"x": 1.0, "v": 0.0}, options=SolverOptions(method=Exact()))
 
 
 def test_cli_integrator_exact(tmp_path, capsys):
@@ -389,7 +399,7 @@ def test_a_whole_exact_band_agrees_with_ida(name):
 
     system = getattr(hybrid_models, name)()
     p = system.preset("standard")
-    br = continue_orbits(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(integrator="exact"))
+    br = continue_orbits(system, p, "Omega", (0.8527, 0.8562), options=SolverOptions(method=Exact()))
     assert br.status == "completed", br.message
     at_change = {
         # (bracketed too: since issue 23 a mode change on the exact flow carries its rounding margin,
@@ -406,7 +416,7 @@ def test_a_whole_exact_band_agrees_with_ida(name):
         # IDA run from the exact orbit stops at 1.25e-11, no decrease possible along Newton's step);
         # there the reference is rerun at 5e-13 (which stalls elsewhere, at the band's left edge).
         for rtol in (1e-12, 5e-13):
-            tight = SolverOptions(rtol=rtol, atol=rtol * 1e-2)
+            tight = SolverOptions(method=IDA(rtol=rtol, atol=rtol * 1e-2))
             q = periodic_orbit(
                 system,
                 o.params,
@@ -463,14 +473,14 @@ def test_parameter_column_of_the_exact_monodromy_matches_ida():
 
     system = hybrid_models.absorber()
     p = system.preset("standard", Omega=0.8545)
-    tight = SolverOptions(rtol=1e-12, atol=1e-14)
+    tight = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
     o = periodic_orbit(
         system, p, options=tight, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=1e-11))
     )
     assert o.converged, o.message
     assert o.transitions_per_period == 4, o.message
     cols = []
-    for opts in (SolverOptions(integrator="exact"), tight):
+    for opts in (SolverOptions(method=Exact()), tight):
         sh = Shooter(system, p, opts, free="Omega")
         cols.append(sh.monodromy(sh.run(o.x0, o.mode0, o.t0))[:, -1])
     assert np.max(np.abs(cols[0] - cols[1])) <= 1e-9 * np.max(np.abs(cols[1]))
@@ -493,7 +503,9 @@ def test_a_simulation_sampled_per_period_runs_on_the_exact_integrator(spp):
             (0.0, 20 * T),
             y0,
             samples_per_period=spp,
-            options=SolverOptions(integrator=integ, rtol=1e-11, atol=1e-13),
+            options=SolverOptions(
+                method=(IDA(rtol=1e-11, atol=1e-13) if integ == "ida" else method_named(integ))
+            ),
         )
         for integ in ("exact", "ida")
     }
@@ -521,7 +533,7 @@ def test_a_crossing_on_the_boundary_of_two_steps_is_taken(max_step):
         p,
         (0.0, 10.0),
         dict.fromkeys(system.variable_names, 0.0),
-        options=SolverOptions(integrator="exact", max_step=max_step),
+        options=SolverOptions(method=Exact(), max_step=max_step),
     )
     assert tr.success, tr.message
     assert tr.events, tr.message

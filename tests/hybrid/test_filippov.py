@@ -19,14 +19,24 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import hybrid
-from hybrid import Mode, ModelError, SolverOptions, Status, filippov_system, periodic_orbit, simulate
+from hybrid import (
+    IDA,
+    Exact,
+    Mode,
+    ModelError,
+    SolverOptions,
+    Status,
+    filippov_system,
+    periodic_orbit,
+    simulate,
+)
 from hybrid.cli import main
 from hybrid_models.coulomb_exact import den_hartog
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-EXACT = SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
-IDA = SolverOptions(rtol=1e-10, atol=1e-12)
+EXACT = SolverOptions(method=Exact())
+IDA = SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))
 
 
 @pytest.fixture(scope="module")

@@ -20,13 +20,24 @@ from chains import acceleration, chain_params, composed_chain
 import hybrid
 import hybrid.model.filippov as filippov
 import hybrid.model.loader as loader
-from hybrid import Mode, ModelError, SolverOptions, Status, Transition, Variable, filippov_system, simulate
+from hybrid import (
+    IDA,
+    Exact,
+    Mode,
+    ModelError,
+    SolverOptions,
+    Status,
+    Transition,
+    Variable,
+    filippov_system,
+    simulate,
+)
 from hybrid.model.compiled import CompiledSystem
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-EXACT = SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
-IDA = SolverOptions(rtol=1e-10, atol=1e-12)
+EXACT = SolverOptions(method=Exact())
+IDA = SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))
 _SIDE = {"plus": "+", "minus": "-", "slide": "0"}
 
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import SolverOptions, WorkerError, frequency_response
+from hybrid import Exact, SolverOptions, WorkerError, frequency_response
 
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 RANGE = (0.85, 1.175)  # both resonances of the absorber: two pieces
 
 

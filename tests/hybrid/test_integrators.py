@@ -1,5 +1,6 @@
-"""The integrators by name (issue 21): the registry, and what each integrator answers, against
-closed forms of an undamped oscillator (its flow, Taylor series and fundamental matrix)."""
+"""The integration methods (issues 21, 29): the registry of names, what each method answers against
+closed forms of an undamped oscillator (its flow, Taylor series and fundamental matrix), and that
+no layer above the integrators asks a method's name or reaches into it."""
 
 import ast
 import math
@@ -8,13 +9,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybrid import HybridSystem, InputError, Mode, NotAffineError, SolverOptions, Transition
-from hybrid.core.options import INTEGRATORS
-from hybrid.integrators.base import Integrator
-from hybrid.integrators.exact import ExactIntegrator, ExactModeSolver
-from hybrid.integrators.ida import IDAIntegrator, ModeSolver
-from hybrid.integrators.registry import NAMES, integrator
+from hybrid import (
+    IDA,
+    Exact,
+    HybridSystem,
+    InputError,
+    Method,
+    Mode,
+    NotAffineError,
+    SolverOptions,
+    Transition,
+    method_named,
+)
+from hybrid.integrators.exact import ExactModeSolver
+from hybrid.integrators.ida import ModeSolver
+from hybrid.integrators.registry import METHODS, NAMES
 from hybrid.model.compiled import CompiledSystem
+from hybrid.orbits.newton import NewtonPolicy
 from hybrid.orbits.shooter import Shooter
 
 W = 2.0  # rad/s
@@ -39,32 +50,53 @@ def _exact_state(t: float) -> np.ndarray:
     )
 
 
-def test_the_option_names_are_the_registry_names():
-    # core/options.py keeps its own tuple (core may not import the integrators): the two must agree
-    assert INTEGRATORS == NAMES
+def integrator(name: str) -> Method:
+    """The method of ``name`` with its default settings."""
+    return method_named(name)
 
 
-def test_each_name_gives_its_one_integrator():
-    assert isinstance(integrator("ida"), IDAIntegrator)
-    assert isinstance(integrator("exact"), ExactIntegrator)
+def test_each_name_gives_its_method_class():
+    assert METHODS == {"ida": IDA, "exact": Exact}
+    assert NAMES == ("ida", "exact")
     for name in NAMES:
-        assert isinstance(integrator(name), Integrator)
-        assert integrator(name).name == name
-        assert integrator(name) is integrator(name)
+        assert isinstance(method_named(name), Method)
+        assert method_named(name).name == name
+        assert method_named(name) == method_named(name)
+    assert method_named("ida", rtol=1e-9) == IDA(rtol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["rk4", "EXACT", None])
+@pytest.mark.parametrize("name", ["IDA", "lsoda", "", None])
 def test_an_unknown_integrator_is_refused(name):
-    with pytest.raises(InputError, match=f"no integrator `{name}`; integrators: ida, exact"):
-        integrator(name)
+    with pytest.raises(InputError, match=f"no integration method `{name}`; methods: ida, exact"):
+        method_named(name)
 
 
-def test_only_the_exact_integrator_is_exact_and_its_noise_is_rounding():
-    opts = SolverOptions(rtol=3e-9)
-    assert integrator("ida").noise_rtol(opts) == 3e-9
-    assert integrator("exact").noise_rtol(opts) == 1e-15
-    assert not integrator("ida").exact
-    assert integrator("exact").exact
+def test_only_the_exact_method_is_exact_and_its_noise_is_rounding():
+    assert IDA(rtol=3e-9).noise_rtol == 3e-9
+    assert Exact().noise_rtol == 1e-15
+    assert not IDA().flows_exact
+    assert Exact().flows_exact
+
+
+def test_tighter_and_looser_copies_scale_every_tolerance():
+    ida = IDA(rtol=1e-8, atol={"x": 1e-10}, atol_default=1e-9)
+    tight = ida.tightened(100.0)
+    assert (tight.rtol, tight.atol["x"], tight.atol_default) == pytest.approx(
+        (1e-10, 1e-12, 1e-11), rel=1e-15
+    )
+    loose = ida.loosened_to(1e-6)
+    assert (loose.rtol, loose.atol["x"], loose.atol_default) == pytest.approx((1e-6, 1e-8, 1e-7), rel=1e-15)
+    assert ida.loosened_to(1e-7) is None  # not 100 times looser: nothing to save
+    assert Exact().tightened(100.0) is None and Exact().loosened_to(1e-6) is None
+
+
+def test_newton_policy_follows_the_capabilities_not_the_name():
+    assert NewtonPolicy.for_method(IDA()) == NewtonPolicy(
+        broyden=True, coarse_stage=True, switch_time_newton=False, cheap_jacobian=False
+    )
+    assert NewtonPolicy.for_method(Exact()) == NewtonPolicy(
+        broyden=False, coarse_stage=False, switch_time_newton=True, cheap_jacobian=True
+    )
 
 
 def test_the_exact_integrator_refuses_a_model_that_is_not_affine_and_ida_takes_it():
@@ -92,8 +124,8 @@ def test_the_guard_series_is_the_taylor_series_of_the_flow(name):
 )
 def test_a_mode_solver_follows_the_flow_to_the_guard(name, kind, tol):
     cs = CompiledSystem(_oscillator(), {"w": W})
-    opts = SolverOptions(rtol=1e-11, atol=1e-13)
-    solver = integrator(name).mode_solver(cs, 0, opts, atol=np.full(2, 1e-13), max_step=0.05)
+    method = IDA(rtol=1e-11, atol=1e-13) if name == "ida" else Exact()
+    solver = method.mode_solver(cs, 0, SolverOptions(method=method), max_step=0.05)
     assert isinstance(solver, kind)
     y0 = np.array([X0, V0])
     solver.start(0.0, y0, cs.modes[0].derivatives(0.0, y0))
@@ -108,20 +140,22 @@ def test_a_mode_solver_follows_the_flow_to_the_guard(name, kind, tol):
 def test_ida_mode_solvers_are_kept_with_the_compiled_system_per_settings():
     cs = CompiledSystem(_oscillator(), {"w": W})
     opts = SolverOptions()
-    ida = integrator("ida")
-    a = ida.mode_solver(cs, 0, opts, atol=np.full(2, 1e-10), max_step=0.1)
-    assert ida.mode_solver(cs, 0, opts, atol=np.full(2, 1e-10), max_step=0.1) is a
-    assert ida.mode_solver(cs, 0, opts, atol=np.full(2, 1e-10), max_step=0.1, first_step=1e-7) is not a
-    assert ida.mode_solver(cs, 0, opts, atol=np.full(2, 1e-10), max_step=0.2) is not a
+    ida = opts.method
+    a = ida.mode_solver(cs, 0, opts, max_step=0.1)
+    assert IDA().mode_solver(cs, 0, opts, max_step=0.1) is a  # equal settings share the solver
+    assert ida.mode_solver(cs, 0, opts, max_step=0.1, first_step=1e-7) is not a
+    assert ida.mode_solver(cs, 0, opts, max_step=0.2) is not a
+    assert IDA(rtol=1e-9).mode_solver(cs, 0, opts, max_step=0.1) is not a
 
 
 @pytest.mark.parametrize(("name", "tol"), [("ida", 1e-8), ("exact", 1e-13)])
 def test_the_variational_solver_gives_the_fundamental_matrix(name, tol):
     # dy(t)/dy(0) = [[cos w t, sin(w t)/w], [-w sin w t, cos w t]]
     cs = CompiledSystem(_oscillator(), {"w": W})
-    opts = SolverOptions(rtol=1e-11, atol=1e-13)
+    method = IDA(rtol=1e-11, atol=1e-13) if name == "ida" else Exact()
+    opts = SolverOptions(method=method)
     s = np.array([0, 1])
-    solvers = integrator(name).variational(cs, s, opts, 0.05)
+    solvers = method.variational(cs, s, opts, 0.05)
     t1 = 1.3
     _, Y = solvers.solver(0, np.zeros(0)).propagate(0.0, np.array([X0, V0]), np.eye(2), t1)
     c, sn = math.cos(W * t1), math.sin(W * t1)
@@ -139,7 +173,7 @@ def test_only_the_exact_integrator_has_exact_flows():
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_a_shooter_asks_its_integrator(name):
+def test_a_shooter_asks_its_method(name):
     system = HybridSystem(
         name="forced",
         variables=["x", "v"],
@@ -149,9 +183,13 @@ def test_a_shooter_asks_its_integrator(name):
         period="2*pi/W",
         initial_mode="free",
     )
-    sh = Shooter(system, {"w": 1.0, "F": 1.0, "W": 1.5}, SolverOptions(rtol=1e-9, integrator=name))
-    assert sh.integrator is integrator(name)
-    assert sh.noise_rtol == integrator(name).noise_rtol(sh.options)
+    sh = Shooter(
+        system,
+        {"w": 1.0, "F": 1.0, "W": 1.5},
+        SolverOptions(method=(IDA(rtol=1e-9) if name == "ida" else method_named(name))),
+    )
+    assert sh.method is sh.options.method
+    assert sh.noise_rtol == sh.method.noise_rtol == (1e-9 if name == "ida" else 1e-15)
 
 
 def test_no_module_compares_an_integrator_name():
@@ -166,3 +204,35 @@ def test_no_module_compares_an_integrator_name():
                 if any(isinstance(o, ast.Constant) and o.value in NAMES for o in operands):
                     found.append(f"{path.relative_to(root.parent)}:{node.lineno}")
     assert found == []
+
+
+def _allowed(owner: ast.expr) -> bool:
+    """The Newton policy of ``orbits/`` (chosen from the capabilities) and the command line's
+    ``args.integrator`` (the name the user typed) may use these words."""
+    if isinstance(owner, ast.Name) and owner.id in ("policy", "args"):
+        return True
+    return isinstance(owner, ast.Call) and "NewtonPolicy" in ast.unparse(owner.func)
+
+
+def test_no_layer_above_the_integrators_asks_a_method_its_kind():
+    """Issue 29: above ``hybrid/integrators`` a method is asked for capabilities (``flows_exact``,
+    ``noise_rtol``, ``tightened``, ...), never for its name or the flags of the old integrator
+    objects (``.exact``, ``.integrator``, ``.broyden``, ``.coarse_stage``, ``.switch_time_newton``)."""
+    root = Path(__file__).resolve().parents[2] / "hybrid"
+    banned = {"exact", "integrator", "broyden", "coarse_stage", "switch_time_newton"}
+    found = []
+    for sub in ("engine", "orbits", "continuation", "studies", "plot", "cli"):
+        for path in sorted((root / sub).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, ast.Attribute) and node.attr in banned and not _allowed(node.value):
+                    found.append(f"{path.relative_to(root.parent)}:{node.lineno} .{node.attr}")
+                if isinstance(node, ast.Attribute) and node.attr == "name":
+                    inner = node.value
+                    if isinstance(inner, ast.Attribute) and inner.attr in ("method", "integ"):
+                        found.append(f"{path.relative_to(root.parent)}:{node.lineno} .method.name")
+    assert found == []
+    # the check can fail: a synthetic module that asks the old flag is flagged
+    bad = ast.parse("if sh.integrator.exact:\n    pass\n")
+    assert any(
+        isinstance(n, ast.Attribute) and n.attr in banned and not _allowed(n.value) for n in ast.walk(bad)
+    )

@@ -1,7 +1,7 @@
 """Newton's method on the IDA path: its coarse first stage, the runs it reuses, and IDA's callbacks.
 
 The references are independent of the code under test: the exact integrator
-(``SolverOptions(integrator="exact")``, matrix exponentials and exact guard roots) and the
+(``SolverOptions(method=Exact())``, matrix exponentials and exact guard roots) and the
 compiled modes' own residual and Jacobian.
 """
 
@@ -13,12 +13,12 @@ import hybrid
 import hybrid.orbits.newton as newton
 import hybrid.orbits.shooter as shooting
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit
+from hybrid import IDA, Exact, SolverOptions, periodic_orbit
 from hybrid.integrators.ida import ModeSolver, SensitivitySolver
 from hybrid.model.compiled import CompiledSystem
 
-IDA = SolverOptions(rtol=1e-10, atol=1e-12)
-EXACT = SolverOptions(integrator="exact")
+IDA_OPTS = SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))
+EXACT = SolverOptions(method=Exact())
 
 
 @pytest.fixture(scope="module")
@@ -39,12 +39,12 @@ def _counting(monkeypatch):
     run, mono = shooting.Shooter._run, shooting.Shooter.monodromy
 
     def _run(self, *args, **kwargs):
-        key = ("run", self.options.rtol)
+        key = ("run", self.options.method.noise_rtol)
         count[key] = count.get(key, 0) + 1
         return run(self, *args, **kwargs)
 
     def _mono(self, *args, **kwargs):
-        key = ("monodromy", self.options.rtol)
+        key = ("monodromy", self.options.method.noise_rtol)
         count[key] = count.get(key, 0) + 1
         return mono(self, *args, **kwargs)
 
@@ -72,11 +72,11 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
 ):
     system, start, p = absorber_neighbours
     count = _counting(monkeypatch)
-    o = _neighbour(system, start, p, IDA)
+    o = _neighbour(system, start, p, IDA_OPTS)
     assert o.converged, o.message
     # the first iterations ran at the coarse tolerance, the result at the requested one
     assert count.get(("run", newton.COARSE_RTOL), 0) >= 2
-    assert count[("monodromy", IDA.rtol)] == 1  # the result's, at its section state
+    assert count[("monodromy", IDA_OPTS.method.rtol)] == 1  # the result's, at its section state
     ref = periodic_orbit(
         system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
     )
@@ -84,7 +84,7 @@ def test_orbit_from_a_neighbour_through_the_coarse_stage_is_as_accurate_as_reque
     assert ref.t0 == o.t0
     x, xr = o.x0[:5], ref.x0[:5]
     # accurate to cond(I - M) x rtol (the orbit's documented accuracy), here about 1e-7
-    assert np.max(np.abs(x - xr)) / np.max(np.abs(xr)) <= 10 * o.condition * IDA.rtol
+    assert np.max(np.abs(x - xr)) / np.max(np.abs(xr)) <= 10 * o.condition * IDA_OPTS.method.rtol
     mu, mur = np.sort_complex(o.floquet_multipliers), np.sort_complex(ref.floquet_multipliers)
     assert np.max(np.abs(mu - mur)) <= 1e-7
 
@@ -93,7 +93,7 @@ def test_the_result_s_monodromy_is_the_one_at_its_section(absorber_neighbours):
     # made once, at the accepted state, and used both to judge the last correction and for the
     # multipliers: equal to the exact integrator's at the same section state
     system, start, p = absorber_neighbours
-    o = _neighbour(system, start, p, IDA)
+    o = _neighbour(system, start, p, IDA_OPTS)
     sh = shooting.Shooter(system, p, EXACT)
     M = sh.monodromy(sh.run(o.x0, o.mode0, o.t0))[:5, :5]
     assert np.max(np.abs(o.monodromy - M)) <= 1e-7 * np.max(np.abs(M))
@@ -104,12 +104,12 @@ def test_a_failing_coarse_stage_falls_back_on_the_requested_tolerances(absorber_
     mono = shooting.Shooter.monodromy
 
     def fails_when_coarse(self, tr):
-        if self.options.rtol == newton.COARSE_RTOL:
+        if self.options.method.noise_rtol == newton.COARSE_RTOL:
             raise RuntimeError("IDA failed in the variational equations")
         return mono(self, tr)
 
     monkeypatch.setattr(shooting.Shooter, "monodromy", fails_when_coarse)
-    o = _neighbour(system, start, p, IDA)
+    o = _neighbour(system, start, p, IDA_OPTS)
     assert o.converged, o.message
     ref = periodic_orbit(
         system, p, o.x0, o.mode0, t0=o.t0, options=EXACT, settings=hybrid.ShootingOptions(transient_periods=0)
@@ -122,11 +122,11 @@ def test_no_coarse_stage_where_it_cannot_save_anything(absorber_neighbours, monk
     count = _counting(monkeypatch)
     # At rtol 2e-9 the residual of the period map is resolved to about 1e-9 only (the final
     # residuals from guesses 1e-13 apart: 1e-10 to 1.3e-9): the tolerance asked of it is 1e-8.
-    for options, tol in ((SolverOptions(rtol=2e-9, atol=2e-11), 1e-8), (EXACT, 1e-9)):
+    for options, tol in ((SolverOptions(method=IDA(rtol=2e-9, atol=2e-11)), 1e-8), (EXACT, 1e-9)):
         count.clear()
         o = _neighbour(system, start, p, options, tol)
         assert o.converged, o.message
-        assert all(rtol == options.rtol for _, rtol in count), count
+        assert all(rtol == options.method.noise_rtol for _, rtol in count), count
 
 
 def _models():

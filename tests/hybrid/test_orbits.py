@@ -14,12 +14,12 @@ import orbit_problems as op
 import pytest
 
 import hybrid
-from hybrid import SolverOptions, continue_orbits, periodic_orbit, simulate
+from hybrid import IDA, SolverOptions, continue_orbits, periodic_orbit, simulate
 from hybrid.engine.eventloop import Run
 from hybrid.engine.variational import Sensitivity
 
 #: Tolerances of the finite-difference period maps (tighter than the orbit's own runs).
-FD_OPTIONS = SolverOptions(rtol=1e-12, atol=1e-14)
+FD_OPTIONS = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 
 
 # ----------------------------------------------------------------------------
@@ -130,7 +130,7 @@ def duffing_branch(duffing):
         params,
         "Omega",
         (1.0, 1.4),
-        options=SolverOptions(rtol=1e-9, atol=1e-11),
+        options=SolverOptions(method=IDA(rtol=1e-9, atol=1e-11)),
         settings=hybrid.ContinuationOptions(ds=0.1, ds_max=0.5, samples_per_period=32, transient_periods=5),
     )
 

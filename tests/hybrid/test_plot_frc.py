@@ -54,15 +54,13 @@ def test_a_bracket_is_labelled_with_digits_enough_to_tell_its_ends_apart():
 @pytest.mark.slow
 def test_the_absorbers_zoom_panels_hold_its_stick_slip_bands_and_their_resonances():
     import hybrid_models
-    from hybrid import SolverOptions, frequency_response
+    from hybrid import Exact, SolverOptions, frequency_response
     from hybrid.plot.frc import zoom_windows
 
     absorber = hybrid_models.absorber()
     p = absorber.preset("standard")
     lo, hi = 0.8, 0.9  # the first resonance (0.8543 rad/s) and its stick-slip band
-    fr = frequency_response(
-        absorber, p, (lo, hi), options=SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
-    )
+    fr = frequency_response(absorber, p, (lo, hi), options=SolverOptions(method=Exact()))
     zooms = zoom_windows(fr)
     assert len(zooms) == 1
     for (a, b, w), res in zip(zooms, fr.resonances[:1], strict=True):

@@ -7,12 +7,15 @@ import pytest
 
 import hybrid_models
 from hybrid import (
+    IDA,
+    Exact,
     HybridSystem,
     Mode,
     ModelError,
     SolverOptions,
     Status,
     Transition,
+    method_named,
     simulate,
     system_from_dict,
 )
@@ -163,7 +166,7 @@ def test_a_crossing_found_at_a_step_end_is_located():
             {"h": 1.0, "v": 0.0},
             "fly",
             throw=False,
-            options=SolverOptions(rtol=1e-11, atol=1e-13),
+            options=SolverOptions(method=IDA(rtol=1e-11, atol=1e-13)),
         )
     assert tr.status == Status.ZENO
     # Closed form: first impact at t1 = sqrt(2 h0/g) with speed v1 = sqrt(2 g h0); the k-th impact
@@ -225,7 +228,7 @@ def test_sampled_outputs_evaluated_at_once_equal_the_scalar_functions(expr):
             (0.0, 3.0),
             {"x": 2.0},
             t_eval=np.linspace(0.0, 3.0, 301),
-            options=SolverOptions(integrator=integrator),
+            options=SolverOptions(method=method_named(integrator)),
         )
         assert tr.success, tr.message
         fn = CompiledSystem(system, {"W": 0.7}).modes[0].outputs["o"]
@@ -261,7 +264,7 @@ def test_a_residual_stalled_by_an_ill_conditioned_map_says_so():
     assert "--integrator exact" in o.message, o.message
     cond = float(re.search(r"cond ([0-9.e+]+):", o.message).group(1))
     assert cond * 1e-10 > 1e-9  # the amplified error exceeds the tolerance, as it says
-    exact = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))
+    exact = periodic_orbit(system, p, options=SolverOptions(method=Exact()))
     assert exact.converged, exact.message
     # a multiplier 1 there (reported as a family of orbits, or with cond(I - M) above 1e6)
     assert np.min(np.abs(np.asarray(exact.multipliers) - 1.0)) < 1e-5

@@ -16,13 +16,13 @@ import pytest
 import hybrid
 import hybrid.orbits.newton as newton
 import hybrid_models
-from hybrid import SolverOptions, load_system, periodic_orbit
+from hybrid import Exact, SolverOptions, load_system, periodic_orbit
 from hybrid.integrators.flows import exact_flows
 from hybrid.orbits.sequence import Switch, _jumps, _residual, sequence_events, solve_sequence
 from hybrid.orbits.shooter import Shooter
 from hybrid_models.coulomb_exact import den_hartog
 
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 
 
 def _neighbour_guess(system, preset, om1, om2):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import ORBIT_OPTIONS, SolverOptions
+from hybrid import ORBIT_OPTIONS, Exact, SolverOptions
 from hybrid.model.compiled import POOL_SIZE, lend
 from hybrid.orbits.shooter import Shooter
 
@@ -29,7 +29,7 @@ def absorber():
     return hybrid_models.absorber()
 
 
-@pytest.mark.parametrize("options", [ORBIT_OPTIONS, SolverOptions(integrator="exact")], ids=["ida", "exact"])
+@pytest.mark.parametrize("options", [ORBIT_OPTIONS, SolverOptions(method=Exact())], ids=["ida", "exact"])
 def test_live_shooters_keep_their_own_parameters(absorber, options):
     shooters = [Shooter(absorber, absorber.preset("standard", Omega=w), options) for w in OMEGAS]
     for sh, w in zip(shooters, OMEGAS, strict=True):
@@ -97,6 +97,6 @@ def test_a_system_is_hashable_and_frozen(absorber):
     with pytest.raises(dataclasses.FrozenInstanceError):
         absorber.name = "other"
     before = set(vars(absorber))
-    Shooter(absorber, absorber.preset("standard"), SolverOptions(integrator="exact"))
+    Shooter(absorber, absorber.preset("standard"), SolverOptions(method=Exact()))
     Shooter(absorber, absorber.preset("standard"), ORBIT_OPTIONS).run(np.zeros(7), "stick", 0.0)
     assert set(vars(absorber)) == before  # nothing written into the system after construction

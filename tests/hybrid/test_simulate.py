@@ -6,6 +6,7 @@ variable that is differential in some modes and a slave variable in another.
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -25,6 +26,8 @@ from problems import (
 
 import hybrid_models
 from hybrid import (
+    IDA,
+    Exact,
     HybridSystem,
     Mode,
     SimulationError,
@@ -99,7 +102,7 @@ def test_index1_dae_with_closed_form_slave_variable():
 
 @pytest.mark.parametrize(
     ("x0", "options"),
-    [(1.5, TIGHT), (2.0, SolverOptions(rtol=1e-10, atol=1e-12))],
+    [(1.5, TIGHT), (2.0, SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)))],
     ids=["x0=1.5-TIGHT", "x0=2-rtol1e-10"],
 )
 def test_index1_dae_at_tight_tolerances_stays_accurate(x0, options):
@@ -613,11 +616,11 @@ def test_trajectory_accessors_and_progress():
 
 def test_per_variable_atol_and_initial_state():
     system, params, x0, exact = oscillator()
-    opts = SolverOptions(rtol=1e-11, atol={"x": 1e-13}, atol_default=1e-13)
+    opts = SolverOptions(method=IDA(rtol=1e-11, atol={"x": 1e-13}, atol_default=1e-13))
     tr = simulate(system, params, (0.0, 3.0), x0, t_eval=[3.0], options=opts)
     assert np.max(np.abs(tr.y_final - exact(3.0)[0])) <= 1e-9
     with pytest.raises(ValueError, match=r"`atol` names unknown variable\(s\) \['q'\]"):
-        simulate(system, params, (0.0, 3.0), x0, options=SolverOptions(atol={"q": 1e-9}))
+        simulate(system, params, (0.0, 3.0), x0, options=SolverOptions(method=IDA(atol={"q": 1e-9})))
     assert np.array_equal(initial_state(system, [1.0, 2.0]), [1.0, 2.0])
     dae, _, _, _ = nonlinear_dae()
     assert np.array_equal(initial_state(dae, {"x": 3.0}, "only"), [3.0, 0.0])
@@ -638,26 +641,81 @@ def test_per_variable_atol_and_initial_state():
         (dict(atol=0.0), r"`atol` must be a finite number > 0"),
         (dict(atol={"x": -1.0}), r"`atol\['x'\]` must be a finite number > 0"),
         (dict(atol_default=0), r"`atol_default` must be a finite number > 0"),
+        (dict(guard_noise=-1), r"`guard_noise` must be a finite number > 0"),
+        (dict(max_num_steps=0), r"`max_num_steps` must be an integer >= 1, got 0"),
+        (dict(max_num_steps=10.5), r"`max_num_steps` must be an integer >= 1"),
+    ],
+)
+def test_ida_settings_are_validated(kwargs, match):
+    with pytest.raises(ValueError, match=r"IDA: " + match):
+        IDA(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
         (dict(max_step=0.0), r"`max_step` must be a finite number > 0, got 0.0"),
         (dict(max_step=-1.0), r"`max_step` must be a finite number > 0"),
         (dict(max_step=float("inf")), r"`max_step` must be a finite number > 0"),
         (dict(zeno_window=0), r"`zeno_window` must be a finite number > 0"),
-        (dict(guard_noise=-1), r"`guard_noise` must be a finite number > 0"),
-        (dict(max_num_steps=0), r"`max_num_steps` must be an integer >= 1, got 0"),
-        (dict(max_num_steps=10.5), r"`max_num_steps` must be an integer >= 1"),
         (dict(zeno_count=True), r"`zeno_count` must be an integer >= 1, got True"),
         (dict(max_chain=0), r"`max_chain` must be an integer >= 1"),
         (dict(taylor_order=1), r"`taylor_order` must be >= 2"),
+        (dict(method="exact"), r"`method` must be an integration method such as hybrid.IDA"),
     ],
 )
 def test_solver_options_are_validated(kwargs, match):
-    with pytest.raises(ValueError, match=r"SolverOptions: " + match):
+    with pytest.raises((ValueError, TypeError), match=r"SolverOptions: " + match):
         SolverOptions(**kwargs)
 
 
 def test_solver_options_reject_unknown_keywords():
     with pytest.raises(TypeError, match=r"max_step_count"):
         SolverOptions(max_step_count=1)
+
+
+# issue 29: the old spelling (tolerances and the integrator's name on SolverOptions) is refused
+# with the new one in the message
+@pytest.mark.parametrize(
+    ("kwargs", "new"),
+    [
+        (dict(rtol=1e-9), "SolverOptions(method=IDA(rtol=1e-09))"),
+        (dict(rtol=1e-9, atol=1e-11), "SolverOptions(method=IDA(rtol=1e-09, atol=1e-11))"),
+        (dict(integrator="exact"), "SolverOptions(method=Exact())"),
+        (dict(integrator="exact", rtol=1e-10, atol=1e-12), "SolverOptions(method=Exact())"),
+        (dict(integrator="ida", max_num_steps=10), "SolverOptions(method=IDA(max_num_steps=10))"),
+    ],
+)
+def test_the_old_spelling_of_solver_options_prints_the_new_one(kwargs, new):
+    with pytest.raises(TypeError, match=re.escape(new)):
+        SolverOptions(**kwargs)
+
+
+def test_the_exact_method_refuses_tolerances_it_does_not_use():
+    with pytest.raises(TypeError, match=r"Exact: `rtol` does not apply: the exact flow has no tolerances"):
+        Exact(rtol=1e-9)
+    with pytest.raises(TypeError, match=r"IDA: no setting 'max_steps'"):
+        IDA(max_steps=10)
+
+
+def test_a_method_owns_its_settings_and_prints_them():
+    opts = SolverOptions(method=IDA(rtol=1e-9, atol={"x": 1e-12}))
+    assert opts.method.settings() == {
+        "name": "ida",
+        "rtol": 1e-9,
+        "atol": {"x": 1e-12},
+        "atol_default": 1e-10,
+        "max_num_steps": 50_000,
+        "guard_noise": 10.0,
+    }
+    assert "IDA(rtol=1e-09" in repr(opts)
+    assert SolverOptions(method=Exact()).method.settings() == {
+        "name": "exact",
+        "guard_noise": 10.0,
+        "band_rtol": 1e-10,
+        "band_atol": 1e-12,
+    }
+    assert hash(SolverOptions(method=IDA(rtol=1e-9))) == hash(SolverOptions(method=IDA(rtol=1e-9)))
 
 
 @pytest.mark.parametrize(
@@ -771,8 +829,8 @@ def test_a_switch_on_a_requested_sample_time_is_sampled_after_it(x0):
     )
     grid = np.linspace(0.0, 1.0, 11)
     for options in (
-        SolverOptions(rtol=1e-10, atol=1e-12),
-        SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact"),
+        SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)),
+        SolverOptions(method=Exact()),
     ):
         tr = simulate(s, {}, (0.0, 1.0), {"x": x0}, t_eval=grid, options=options)
         assert tr.status == Status.COMPLETED

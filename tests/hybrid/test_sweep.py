@@ -27,7 +27,7 @@ from hybrid.cli import main
 from hybrid.plot.chart import chart_rows, write_charts
 from hybrid.studies.sweep import MANIFEST, model_data, system_from_data
 
-EXACT = hybrid.SolverOptions(integrator="exact")
+EXACT = hybrid.SolverOptions(method=hybrid.Exact())
 P_RANGE = (0.5, 1.5)
 
 MODEL_TOML = """
@@ -370,9 +370,7 @@ def test_sigkill_then_resume_equals_uninterrupted_run(tmp_path):
         after.axes,
         tmp_path / "ref",
         p_range=P_RANGE,
-        options=hybrid.SolverOptions(
-            integrator="exact", rtol=after.manifest["options"]["rtol"], atol=after.manifest["options"]["atol"]
-        ),
+        options=hybrid.SolverOptions(method=hybrid.Exact()),
     )
     assert ref.manifest["model_hash"] == after.manifest["model_hash"]
     for k, r in ref.points.items():

@@ -20,12 +20,12 @@ import pytest
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, continue_orbits, periodic_orbit
+from hybrid import Exact, SolverOptions, continue_orbits, periodic_orbit
 from hybrid.integrators.flows import exact_flows
 from hybrid.orbits.orbit import balance_scales
 from hybrid.orbits.shooter import Shooter
 
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 #: The absorber's first band edges (standard parameters), from the closed forms (test_continuation).
 ONSET, LOSS = 0.8529825446319, 0.8556511156206
 

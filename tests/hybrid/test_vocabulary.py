@@ -27,9 +27,11 @@ import hybrid.orbits.shooter as shooter
 import hybrid.studies.sweep as sweep_mod
 import hybrid_models
 from hybrid import (
+    IDA,
     Branch,
     BranchStatus,
     ContinuationOptions,
+    Exact,
     HybridSystem,
     Mode,
     NewtonOptions,
@@ -54,7 +56,7 @@ from hybrid.core.status import (
 from hybrid.engine.io import to_json
 from hybrid.orbits.equilibria import EQUILIBRIUM_NEWTON, HOPF_SECANT
 
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 
 #: Reason codes produced by tests elsewhere (code -> test).
 ELSEWHERE = {
@@ -616,7 +618,7 @@ def test_an_autonomous_orbit_needs_a_transient():
         (
             lambda s, p: hybrid.frequency_response(s, p, (0.7, 0.9), integrator="exact"),
             r"frequency_response\(\) got unexpected keyword argument\(s\) 'integrator': options go in "
-            r"objects, not keywords: call frequency_response\(\.\.\., options=SolverOptions\(integrator='exact'\)\)$",
+            r"objects, not keywords: call frequency_response\(\.\.\., options=SolverOptions\(method=Exact\(\)\)\)$",
         ),
         (
             lambda s, p: hybrid.periodic_orbit(s, p, tol=1e-11),
@@ -629,7 +631,7 @@ def test_an_autonomous_orbit_needs_a_transient():
         (
             lambda s, p: hybrid.continue_orbits(s, p, "Omega", (0.7, 0.9), ds=0.1, rtol=1e-9),
             r"'ds', 'rtol': options go in objects, not keywords: call continue_orbits\(\.\.\., "
-            r"options=SolverOptions\(rtol=1e-09\), settings=ContinuationOptions\(ds=0\.1\)\)",
+            r"options=SolverOptions\(method=IDA\(rtol=1e-09\)\), settings=ContinuationOptions\(ds=0\.1\)\)",
         ),
         (
             lambda s, p: hybrid.continue_orbits(s, p, "Omega", (0.7, 0.9), max_iter=4),
@@ -651,20 +653,23 @@ def test_the_message_of_a_loose_option_is_the_call_that_works(coulomb):
     """Issue 24: the fix, merged with the options already passed, runs as it is printed."""
     system, p = coulomb
     with pytest.raises(TypeError) as info:
-        hybrid.periodic_orbit(system, p, options=SolverOptions(rtol=1e-9), integrator="exact", max_iter=7)
+        hybrid.periodic_orbit(
+            system, p, options=SolverOptions(method=IDA(rtol=1e-9)), integrator="exact", max_iter=7
+        )
     msg = str(info.value)
     fix = msg.split("call periodic_orbit(..., ", 1)[1][:-1]
     assert fix == (
-        "options=SolverOptions(rtol=1e-09, integrator='exact'), "
-        "settings=ShootingOptions(newton=NewtonOptions(max_iter=7))"
+        "options=SolverOptions(method=Exact()), settings=ShootingOptions(newton=NewtonOptions(max_iter=7))"
     )
     namespace = {
         "SolverOptions": SolverOptions,
+        "Exact": Exact,
+        "IDA": IDA,
         "ShootingOptions": ShootingOptions,
         "NewtonOptions": NewtonOptions,
     }
     kwargs = _build_call(f"dict({fix})", namespace)
-    assert kwargs["options"] == SolverOptions(rtol=1e-9, integrator="exact")
+    assert kwargs["options"] == SolverOptions(method=Exact())
     assert kwargs["settings"].newton.max_iter == 7
 
 

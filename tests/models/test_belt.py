@@ -19,12 +19,14 @@ import pytest
 import hybrid
 import hybrid_models
 from hybrid import (
+    IDA,
     NewtonOptions,
     SolverOptions,
     autonomous_orbit,
     equilibrium,
     hopf_branch,
     locate_hopf,
+    method_named,
     orbit_branch,
     simulate,
 )
@@ -41,7 +43,9 @@ def closed_form(v_b: float, m=P["m"], k=P["k"], Fs=P["Fs"], Fk=P["Fk"]) -> tuple
 @pytest.mark.parametrize(("integrator", "rtol", "err"), [("exact", 1e-10, 1e-9), ("ida", 1e-10, 1e-7)])
 def test_coulomb_stick_slip_cycle_against_closed_form(integrator, rtol, err):
     belt = hybrid_models.belt()
-    opts = SolverOptions(rtol=rtol, atol=rtol * 1e-2, integrator=integrator)
+    opts = SolverOptions(
+        method=(IDA(rtol=rtol, atol=rtol * 1e-2) if integrator == "ida" else method_named(integrator))
+    )
     for v_b in (0.13, 0.41, 0.97, 2.3):
         T, A = closed_form(v_b)
         for phase in ("auto", "anchor"):
@@ -105,7 +109,9 @@ def test_stribeck_hopf_branch_meets_the_stick_slip_branch_at_a_grazing():
     settings = replace(
         AUTONOMOUS_CONTINUATION, ds=0.04, ds_max=0.15, newton=NewtonOptions(tol=1e-11, max_iter=8)
     )
-    opts = SolverOptions(rtol=1e-12, atol=1e-14)  # the trivial multiplier to 1e-8 (7e-8 at rtol 1e-10)
+    opts = SolverOptions(
+        method=IDA(rtol=1e-12, atol=1e-14)
+    )  # the trivial multiplier to 1e-8 (7e-8 at rtol 1e-10)
     smooth = hopf_branch(eq, "v_b", (0.3, 3.0), settings=settings, options=opts)
     assert smooth.status == "stopped"
     assert smooth.reason == "grazing"
@@ -138,7 +144,7 @@ def test_long_simulation_from_steady_sliding_settles_on_the_cycle():
         (0.0, 400.0),
         {"x": x_star + 1e-3, "w": -p["v_b"]},
         mode0="slip-",
-        options=SolverOptions(rtol=1e-10, atol=1e-12),
+        options=SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)),
     )
     hits = [e for e in tr.events if e.guard == "breakaway-"]
     assert len(hits) >= 10

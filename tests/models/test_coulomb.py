@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import SolverOptions, simulate
+from hybrid import IDA, SolverOptions, simulate
 from hybrid_models.coulomb_exact import free_response, stop_position, stop_time
 
-TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
+TIGHT = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 
 
 @pytest.mark.parametrize("x0", [1.0, -0.73, 2.55])

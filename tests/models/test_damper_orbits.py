@@ -13,11 +13,11 @@ import pytest
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, periodic_orbit, simulate
+from hybrid import IDA, SolverOptions, periodic_orbit, simulate
 from hybrid_models.linear import stick_amplitudes
 
 #: Tolerances of the absorber's orbit and of the finite-difference period maps.
-TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
+TIGHT = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 
 
 def state_indices(orbit) -> list[int]:

@@ -12,10 +12,10 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq
 
 import hybrid_models
-from hybrid import SolverOptions, simulate
+from hybrid import IDA, Exact, SolverOptions, simulate
 from hybrid_models.linear import stick_amplitudes, stick_response
 
-TIGHT = SolverOptions(rtol=1e-11, atol=1e-13)
+TIGHT = SolverOptions(method=IDA(rtol=1e-11, atol=1e-13))
 NAMES = ("x1", "v1", "x2", "v2", "u")
 
 
@@ -58,7 +58,10 @@ def _stick_slip_run(name, periods, options):
 
 @pytest.fixture(scope="module", params=["absorber", "isolator"])
 def long_run(request):
-    return (request.param, *_stick_slip_run(request.param, 60, SolverOptions(rtol=1e-10, atol=1e-12)))
+    return (
+        request.param,
+        *_stick_slip_run(request.param, 60, SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))),
+    )
 
 
 def test_long_run_has_stick_and_slip(long_run):
@@ -124,7 +127,7 @@ def test_every_located_event_lies_on_the_papers_switching_surface(long_run):
 
 def test_switch_times_of_a_long_run_agree_with_the_exact_integrator(long_run):
     """The same 60 periods on the exact integrator (matrix exponentials of the affine modes and guard
-    roots of the exact solution; SolverOptions(integrator="exact")) instead of IDA: the same sequence
+    roots of the exact solution; SolverOptions(method=Exact())) instead of IDA: the same sequence
     of switches at the same times. The difference is the global error of the IDA run (rtol 1e-10)
     after up to 440 s: measured 5.7e-6 s (absorber, at a breakaway near t = 400 s where H reaches R at
     a small rate) and 4.8e-7 s (isolator); the final states 4.6e-8 and 8.5e-8 of the state's scale.
@@ -141,7 +144,7 @@ def test_switch_times_of_a_long_run_agree_with_the_exact_integrator(long_run):
         x0,
         "stick",
         t_eval=[0.0, 60 * T],
-        options=SolverOptions(integrator="exact"),
+        options=SolverOptions(method=Exact()),
     )
     assert ex.success
     assert [(e.source, e.target) for e in ex.events] == [(e.source, e.target) for e in tr.events]

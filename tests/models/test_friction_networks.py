@@ -26,6 +26,7 @@ import pytest
 
 import hybrid_models
 from hybrid import (
+    Exact,
     HybridSystem,
     Mode,
     SolverOptions,
@@ -38,7 +39,7 @@ from hybrid import (
 
 MODEL_DIR = Path(hybrid_models.__file__).parent
 DATA = Path(__file__).parent / "data"
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 FIGURES: dict[str, float] = {}
 
 
@@ -174,7 +175,7 @@ def test_bk_chain_of_six_blocks_against_an_independent_event_driven_reference():
         system.preset("standard"),
         (0.0, 50.0),
         dict.fromkeys(system.variable_names, 0.0),
-        options=SolverOptions(integrator="exact", rtol=1e-12, atol=1e-14),
+        options=SolverOptions(method=Exact()),
     )
     assert tr.success
 

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 import hybrid
-from hybrid import HybridSystem, Mode, ModelError, SolverOptions
+from hybrid import IDA, Exact, HybridSystem, Mode, ModelError, SolverOptions
 from hybrid_models.network import build
 
 ROOT = Path(__file__).resolve().parents[2]
-EXACT = SolverOptions(rtol=1e-10, atol=1e-12, integrator="exact")
-IDA_TIGHT = SolverOptions(rtol=1e-12, atol=1e-14)
+EXACT = SolverOptions(method=Exact())
+IDA_TIGHT = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14))
 
 #: Two masses on springs and dampers, the first driven by F0 + F1 sin(W t) + F2 sin(2 W t + phi2).
 LINEAR = """
@@ -230,7 +230,7 @@ def test_a_composed_network_with_two_harmonics_on_the_exact_integrator(n):
     x0 = np.zeros(len(system.variable_names))
     runs = [
         hybrid.simulate(system, p, (0.0, 2.0), x0, options=o, samples_per_period=8)
-        for o in (EXACT, SolverOptions(rtol=1e-11, atol=1e-13))
+        for o in (EXACT, SolverOptions(method=IDA(rtol=1e-11, atol=1e-13)))
     ]
     assert len(runs[0].events) == len(runs[1].events) > 10
     scale = np.max(np.abs(runs[1].y[:, : 2 * n]))

@@ -24,10 +24,10 @@ from scipy.optimize import brentq
 
 import hybrid
 import hybrid_models
-from hybrid import SolverOptions, load_system, periodic_orbit, simulate
+from hybrid import IDA, Exact, SolverOptions, load_system, periodic_orbit, simulate
 
 MODEL_DIR = Path(hybrid_models.__file__).parent
-TIGHT = SolverOptions(rtol=1e-10, atol=1e-12)
+TIGHT = SolverOptions(method=IDA(rtol=1e-10, atol=1e-12))
 FIGURES: dict[str, float] = {}
 
 
@@ -145,9 +145,9 @@ def test_network_periodic_orbit_equals_the_hand_written_one(hand_name, net_name,
     hand, net = hybrid_models.BUILTIN[hand_name](), _net(net_name)
     p = hand.preset(preset)
     if integrator == "exact":
-        opts, tol, bound = SolverOptions(integrator="exact"), 1e-12, 1e-9
+        opts, tol, bound = SolverOptions(method=Exact()), 1e-12, 1e-9
     else:
-        opts, tol, bound = SolverOptions(rtol=1e-12, atol=1e-14), 1e-11, 1e-8
+        opts, tol, bound = SolverOptions(method=IDA(rtol=1e-12, atol=1e-14)), 1e-11, 1e-8
     a, b = (
         periodic_orbit(
             hand, p, options=opts, settings=hybrid.ShootingOptions(newton=hybrid.NewtonOptions(tol=tol))

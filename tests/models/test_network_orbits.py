@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import hybrid_models
-from hybrid import SolverOptions, load_system, periodic_orbit, simulate
+from hybrid import Exact, SolverOptions, load_system, periodic_orbit, simulate
 
 MODEL_DIR = Path(hybrid_models.__file__).parent
 BEFORE = json.loads((Path(__file__).parent / "data" / "network_orbits_before.json").read_text())
@@ -55,7 +55,7 @@ def _state_at(system, orbit, t: float) -> dict[str, float]:
         orbit.x0,
         orbit.mode0,
         t_eval=[t],
-        options=SolverOptions(integrator="exact"),
+        options=SolverOptions(method=Exact()),
     )
     return {n: float(tr[n][0]) for n in system.variable_names}
 
@@ -69,7 +69,7 @@ def test_shipped_network_orbit_equals_the_enumerating_builders(case):
     name, preset = case.split("/")
     ref = BEFORE[case]
     system = load_system(MODEL_DIR / f"{name}.toml")
-    orbit = periodic_orbit(system, system.preset(preset), options=SolverOptions(integrator="exact"))
+    orbit = periodic_orbit(system, system.preset(preset), options=SolverOptions(method=Exact()))
     assert orbit.converged
     assert ref["converged"]
     T = ref["period"]

@@ -78,8 +78,8 @@ def parameters(model: str):
 
 def options(integrator: str) -> hybrid.SolverOptions:
     if integrator == "ida":
-        return hybrid.SolverOptions(integrator="ida", rtol=1e-10, atol=1e-12, max_wall_time=60.0)
-    return hybrid.SolverOptions(integrator="exact", max_wall_time=60.0)
+        return hybrid.SolverOptions(method=hybrid.IDA(rtol=1e-10, atol=1e-12), max_wall_time=60.0)
+    return hybrid.SolverOptions(method=hybrid.Exact(), max_wall_time=60.0)
 
 
 def balance_ok(w: float, d: float, de: float, tol: float, floor: float = 1e-14) -> bool:

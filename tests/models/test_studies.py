@@ -31,7 +31,7 @@ def test_curve_peak_is_the_periodic_orbit_found_from_rest_at_that_frequency(abso
     assert WINDOWS[1][0] < c.peak_omega < WINDOWS[1][1]
     # an independent orbit: IDA, from rest with a transient, at the peak frequency
     system = hybrid_models.absorber()
-    opts = hybrid.SolverOptions(rtol=1e-10, atol=1e-12)
+    opts = hybrid.SolverOptions(method=hybrid.IDA(rtol=1e-10, atol=1e-12))
     o = hybrid.periodic_orbit(
         system,
         {**c.params, "Omega": c.peak_omega},

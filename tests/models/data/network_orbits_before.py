@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import hybrid_models
-from hybrid import SolverOptions, load_system, periodic_orbit
+from hybrid import Exact, SolverOptions, load_system, periodic_orbit
 
 FILES = [
     "absorber_network",
@@ -53,7 +53,7 @@ def main() -> None:
         system = load_system(folder / f"{name}.toml")
         for preset in presets:
             p = system.preset(preset)
-            orbit = periodic_orbit(system, p, options=SolverOptions(integrator="exact"))
+            orbit = periodic_orbit(system, p, options=SolverOptions(method=Exact()))
             key = f"{name}/{preset}"
             out[key] = {
                 "converged": bool(orbit.converged),
