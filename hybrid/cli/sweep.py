@@ -265,7 +265,7 @@ class _Workers:
     def count(self) -> int:
         try:
             return len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
-        except Exception:  # the scheduler is gone or does not answer: no worker
+        except (OSError, RuntimeError):  # the scheduler gone (closed comm, timeout, closed loop)
             return 0
 
     def __call__(self) -> None:

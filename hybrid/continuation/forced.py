@@ -847,6 +847,6 @@ def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:
         direction = float(np.sign(pt.tangent[-1]))  # keep the branch's sense, also past a fold
     try:
         new.tangent = c.tangent(new, None, direction)
-    except Exception:
+    except (_Fail, *_FAILURES):  # as at the branch's first tangent; anything else is a defect (issue 29)
         return None
     return new

@@ -562,10 +562,11 @@ def rounding_margin(pts, p: float) -> float:
     eps = float(np.finfo(float).eps)
     cond = 0.0
     for pt in pts:
-        try:  # (a probe's orbit is made on first use)
-            k = getattr(getattr(pt, "orbit", None), "condition", math.nan)
-        except Exception:  # noqa: BLE001 - no orbit: no condition number
-            k = math.nan
+        try:  # (a probe's orbit is made on first use: its sampled run)
+            orbit = pt.orbit
+        except (ArithmeticError, RuntimeError, ValueError):  # its run failed: no condition number
+            orbit = None
+        k = math.nan if orbit is None else orbit.condition
         if k is None or not math.isfinite(k):
             return EXACT_ROUNDING_FALLBACK * abs(p)
         cond = max(cond, float(k))

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..core.errors import InputError
+from ..core.errors import AlgebraicSolveError, InputError
 from .codegen import compile_many
 from .compiled import CompiledSystem
 from .expr import diff, num, substitute
@@ -92,7 +92,7 @@ def fast_dynamics(
         return msg
     try:
         lam = mode_eigenvalues(cm, t, cm.solve_algebraic(t, y), quad)
-    except Exception:  # a diagnosis only
+    except (AlgebraicSolveError, ArithmeticError, ValueError):  # a diagnosis only (LinAlgError too)
         return msg
     if not (lam.size and np.all(np.isfinite(lam))):
         return msg

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.errors import GrazingSwitchError
+from ..core.errors import AlgebraicSolveError, GrazingSwitchError
 from ..engine.trajectory import DeferredTrajectory, Trajectory
 from ..integrators.flows import exact_flows
 from .orbit import (
@@ -28,6 +28,12 @@ from .orbit import (
 from .section import choose_section_period
 from .sequence import sequence_events, solve_sequence
 from .shooter import Shooter
+
+#: What projecting a state onto a mode's constraint manifold (:meth:`NewtonMap.project`) raises
+#: where no consistent point is found there: the slave solve failed, or the model's own arithmetic
+#: did (a division by zero, a logarithm of a negative number). Anything else (a TypeError, ...) is
+#: a defect and propagates (issue 29).
+NO_CONSISTENT_POINT = (AlgebraicSolveError, ArithmeticError, ValueError)
 
 __all__ = ["NewtonMap", "coarse_shooter", "newton", "state_scale"]
 
@@ -110,7 +116,7 @@ def _newton(shooter, coarse, y, mode0, t0, tol, max_iter, samples, at, stage) ->
     rcond = 1e-7
     try:
         y = nw.project(t0, np.array(y, dtype=float))
-    except Exception as exc:  # AlgebraicSolveError
+    except NO_CONSISTENT_POINT as exc:
         return failed_orbit(
             shooter, y, mode0, t0, 0, math.inf, f"guess is not consistent: {exc}", "inconsistent-guess"
         )
@@ -387,7 +393,7 @@ def _sequence_candidate(shooter, nw, tr, y, mode0, t0, samples, res_norm, tol):
     y_new[modes[m0].d] = yd
     try:
         y_new = nw.project(t0, y_new)
-    except Exception:  # AlgebraicSolveError: no consistent point there
+    except NO_CONSISTENT_POINT:  # no consistent point there
         return None
     run = shooter._run(y_new, mode0, t0, samples)
     if not run.success or not np.all(np.isfinite(run.y_final)):
@@ -550,7 +556,7 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, picked, res0, samples=No
         y_new[d] += lam * step
         try:
             y_new = nw.project(t0, y_new)
-        except Exception:  # AlgebraicSolveError: no consistent point there
+        except NO_CONSISTENT_POINT:  # no consistent point there: a shorter step
             lam *= 0.5
             continue
         tr = (

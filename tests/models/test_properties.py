@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -88,56 +89,125 @@ def balance_ok(w: float, d: float, de: float, tol: float, floor: float = 1e-14) 
     return abs(w - d - de) <= tol * scale + floor
 
 
+#: The least fraction of the drawn cases that must reach the checks of a property (the others end
+#: in a documented status): a property that no case reaches checks nothing (issue 29, item 4).
+#: Measured (derandomized draws, at a load of 4 on 2 cores): the short simulations 25 of 25 per
+#: model, the orbits 5 to 6 of 6. The draws follow the test's source (Hypothesis seeds from it), so
+#: an edit draws other cases: half is far below both.
+CHECKED_FRACTION = 0.5
+
+
+def assert_checked(outcomes: Counter, what: str) -> None:
+    """Fail unless at least :data:`CHECKED_FRACTION` of the cases run reached the checks."""
+    run = sum(outcomes.values())
+    assert run > 0
+    assert outcomes["checked"] >= CHECKED_FRACTION * run, (
+        f"only {outcomes['checked']} of {run} {what} reached the checks: {dict(outcomes)}"
+    )
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("model", sorted(RANGES))
-@settings(PROPERTY, max_examples=25)
-@given(data=st.data())
-def test_short_simulation_never_crashes_and_balances_energy(model, data):
+def test_short_simulation_never_crashes_and_balances_energy(model):
     system = MODELS[model]
-    p = data.draw(parameters(model), label="params")
-    integrator = data.draw(st.sampled_from(["ida", "exact"]), label="integrator")
-    params = system.parameter_values(p)
-    t_end = 5.0 * system.period_value(params)
-    x0 = {n: 0.0 for n in system.variable_names}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        tr = hybrid.simulate(system, params, (0.0, t_end), x0, options=options(integrator), throw=False)
-    if not tr.success:  # a documented stop: status and message, no exception
-        event(f"{model} {integrator}: stopped ({tr.status.name})")
-        assert tr.message
-        assert tr.status.name != "SUCCESS"
-        return
-    s = trajectory_summary(tr)
-    assert np.isfinite(tr.y_final).all()
-    w, d, de = s["input_work"], s["dissipated_energy"], s["mechanical_energy_change"]
-    tol = TOLERANCE[integrator]
-    late = [w_ for w_ in caught if "before it could be armed" in str(w_.message)]
-    if late and not balance_ok(w, d, de, tol, FLOOR[integrator]):
-        # The documented approximation (docs/engine.md): a guard found beyond zero at the end of a
-        # step is taken there, with a RuntimeWarning; the balance is then as good as that step.
-        event(f"{model} {integrator}: balance off after the late-crossing warning")
-        return
-    event(f"{model} {integrator}: finished, " + ("switching" if tr.n_transitions else "no switch"))
-    assert d >= -tol * (abs(w) + abs(de)) - FLOOR[integrator], s  # friction only dissipates
-    assert balance_ok(w, d, de, tol, FLOOR[integrator]), s
+    outcomes: Counter = Counter()
+
+    @settings(PROPERTY, max_examples=25)
+    @given(data=st.data())
+    def case(data):
+        p = data.draw(parameters(model), label="params")
+        integrator = data.draw(st.sampled_from(["ida", "exact"]), label="integrator")
+        params = system.parameter_values(p)
+        t_end = 5.0 * system.period_value(params)
+        x0 = {n: 0.0 for n in system.variable_names}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            tr = hybrid.simulate(system, params, (0.0, t_end), x0, options=options(integrator), throw=False)
+        if not tr.success:  # a documented stop: status and message, no exception
+            event(f"{model} {integrator}: stopped ({tr.status.name})")
+            outcomes["stopped"] += 1
+            assert tr.message
+            assert tr.status.name != "SUCCESS"
+            return
+        s = trajectory_summary(tr)
+        assert np.isfinite(tr.y_final).all()
+        w, d, de = s["input_work"], s["dissipated_energy"], s["mechanical_energy_change"]
+        tol = TOLERANCE[integrator]
+        late = [w_ for w_ in caught if "before it could be armed" in str(w_.message)]
+        if late and not balance_ok(w, d, de, tol, FLOOR[integrator]):
+            # The documented approximation (docs/engine.md): a guard found beyond zero at the end of
+            # a step is taken there, with a RuntimeWarning; the balance is then as good as that step.
+            event(f"{model} {integrator}: balance off after the late-crossing warning")
+            outcomes["late crossing"] += 1
+            return
+        event(f"{model} {integrator}: finished, " + ("switching" if tr.n_transitions else "no switch"))
+        assert d >= -tol * (abs(w) + abs(de)) - FLOOR[integrator], s  # friction only dissipates
+        assert balance_ok(w, d, de, tol, FLOOR[integrator]), s
+        outcomes["checked"] += 1
+
+    case()
+    assert_checked(outcomes, "simulations")
 
 
 @pytest.mark.parametrize("model", sorted(RANGES))
-@settings(PROPERTY, max_examples=6)
-@given(p=st.data())
-def test_periodic_orbit_is_found_or_reported_and_balances_energy(model, p):
+def test_periodic_orbit_is_found_or_reported_and_balances_energy(model):
     system = MODELS[model]
-    params = system.parameter_values(p.draw(parameters(model), label="params"))
+    outcomes: Counter = Counter()
+
+    @settings(PROPERTY, max_examples=6)
+    @given(p=st.data())
+    def case(p):
+        params = system.parameter_values(p.draw(parameters(model), label="params"))
+        o = hybrid.periodic_orbit(
+            system, params, options=options("exact"), settings=hybrid.ShootingOptions(samples_per_period=64)
+        )
+        if not o.converged:
+            event(f"{model}: orbit not found")
+            outcomes["not found"] += 1
+            assert o.message
+            return
+        event(f"{model}: orbit {o.stability}")
+        e = o.energy
+        floor = orbit_floor(system, o)
+        assert balance_ok(e["input"], e["dissipated"], e.get("mechanical_change", 0.0), 1e-8, floor), e
+        outcomes["checked"] += 1
+
+    case()
+    assert_checked(outcomes, "orbits")
+
+
+def orbit_floor(system, o) -> float:
+    """Absolute floor of an orbit's balance [J]: rounding of the energy stored, 1e-12 of its largest
+    value on the orbit (plus 1e-14 J). Without friction nothing is exchanged over a period and the
+    three terms are rounding of energies of that size (issue 29, item 4: a Coulomb oscillator with
+    R = 1.5e-114 N stores 6.8 J and balances to 1.0e-14 J; the library reports no relative
+    residual there)."""
+    return 1e-14 + 1e-12 * o.amplitude[system.energy["mechanical"]]
+
+
+def test_a_frictionless_orbit_balances_to_the_rounding_of_its_stored_energy():
+    # The case drawn by the orbit property above: no friction to speak of, so the orbit is the
+    # undamped linear one, amplitude F / |k - m Omega^2|; its balance is rounding of the energy stored.
+    system = MODELS["coulomb"]
+    p = {"F": 0.9217335083780087, "R": 1.5378809525635637e-114, "Omega": 1.4099662438729945}
+    params = system.parameter_values({**p, "k": 1.6351763270450892, "m": 1.0})
     o = hybrid.periodic_orbit(
         system, params, options=options("exact"), settings=hybrid.ShootingOptions(samples_per_period=64)
     )
-    if not o.converged:
-        event(f"{model}: orbit not found")
-        assert o.message
-        return
-    event(f"{model}: orbit {o.stability}")
+    assert o.converged, o.message
+    x = params["F"] / abs(params["k"] - params["m"] * params["Omega"] ** 2)
+    assert abs(o.amplitude["x"] - x) <= 1e-9 * x
     e = o.energy
-    assert balance_ok(e["input"], e["dissipated"], e.get("mechanical_change", 0.0), 1e-8), e
+    assert e["relative_residual"] is None  # nothing exchanged over a period
+    assert balance_ok(e["input"], e["dissipated"], e["mechanical_change"], 1e-8, orbit_floor(system, o))
+
+
+def test_the_checked_fraction_fails_a_property_that_no_case_reaches():
+    with pytest.raises(AssertionError, match="only 0 of 6 orbits reached the checks"):
+        assert_checked(Counter({"not found": 6}), "orbits")
+    with pytest.raises(AssertionError, match="only 2 of 5"):
+        assert_checked(Counter({"checked": 2, "stopped": 3}), "simulations")
+    assert_checked(Counter({"checked": 3, "stopped": 3}), "simulations")
 
 
 def invalid_values(domain: str):
