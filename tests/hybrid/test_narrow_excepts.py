@@ -13,13 +13,13 @@ import hybrid
 import hybrid.continuation.forced as forced
 import hybrid.continuation.special as special
 import hybrid.orbits.newton as newton
-from hybrid import HybridSystem, Mode, SolverOptions, periodic_orbit
+from hybrid import Exact, HybridSystem, Mode, SolverOptions, periodic_orbit
 from hybrid.core.errors import AlgebraicSolveError, GrazingSwitchError, IntegratorError, SimulationError
 from hybrid.model.compiled import CompiledSystem
 from hybrid.model.linear import fast_dynamics
 from hybrid.orbits.shooter import Shooter
 
-EXACT = SolverOptions(integrator="exact")
+EXACT = SolverOptions(method=Exact())
 NO_TRANSIENT = hybrid.ShootingOptions(transient_periods=0)
 
 
