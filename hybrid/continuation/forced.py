@@ -268,7 +268,7 @@ class _Continuer:
                     staged = False  # anything but a plain run: at the requested tolerances
                     continue
             elif ahead:
-                tr = self.sh._run(y, pt.mode, t0, samples)
+                tr = self.sh.run_now(y, pt.mode, t0, samples)
             else:
                 tr = self.sh.run(y, pt.mode, t0, samples=samples)
             if not tr.success:
