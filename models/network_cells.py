@@ -21,7 +21,7 @@ import re
 from collections.abc import Mapping
 
 from hybrid import ModelError
-from hybrid.model.loader import _key, _short  # how a file's values are quoted in messages: one place
+from hybrid.model.loader import shown_key, shown_value  # a file's values shown alike in messages
 
 __all__ = ["MAX_COPIES", "expand_cells"]
 
@@ -69,30 +69,34 @@ class _Cell:
     """One ``[cells.NAME]`` table, validated: its count, layout, local items and parameters."""
 
     def __init__(self, name: str, spec: object, top_names: set[str], top_params: set[str]):
-        where = f"[cells.{_key(name)}]"
+        where = f"[cells.{shown_key(name)}]"
         if not _is_name(name):
-            raise ModelError(f"{where}: {_short(name)} is not a valid cell name (1 to 64 letters, digits, _)")
+            raise ModelError(
+                f"{where}: {shown_value(name)} is not a valid cell name (1 to 64 letters, digits, _)"
+            )
         if not isinstance(spec, Mapping):
-            raise ModelError(f"{where} must be a table, got {_short(spec)}")
+            raise ModelError(f"{where} must be a table, got {shown_value(spec)}")
         allowed = _CELL_KEYS | set(_PART_TABLES) | {"parameters"}
         extra = set(spec) - allowed
         if extra:
-            shown = ", ".join(_key(k) for k in sorted(map(str, extra))[:5])
+            shown = ", ".join(shown_key(k) for k in sorted(map(str, extra))[:5])
             raise ModelError(f"{where}: unknown key(s) {shown}; allowed: {', '.join(sorted(allowed))}")
         if "count" not in spec:
             raise ModelError(f"{where} lacks `count` (the number of copies of the cell)")
         count = spec["count"]
         if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_COPIES:
             raise ModelError(
-                f"{where} `count` = {_short(count)}: the number of copies must be an integer from 1 to {MAX_COPIES}"
+                f"{where} `count` = {shown_value(count)}: the number of copies must be an integer from 1 to {MAX_COPIES}"
             )
         layout = spec.get("layout", "chain")
         if layout not in _LAYOUTS:
-            raise ModelError(f'{where} `layout` = {_short(layout)}: a cell repeats as a "chain" or a "ring"')
+            raise ModelError(
+                f'{where} `layout` = {shown_value(layout)}: a cell repeats as a "chain" or a "ring"'
+            )
         ends = spec.get("ends", "free")
         if ends not in _ENDS:
             raise ModelError(
-                f'{where} `ends` = {_short(ends)}: the ends of a chain are "free" (elements reaching past them '
+                f'{where} `ends` = {shown_value(ends)}: the ends of a chain are "free" (elements reaching past them '
                 'are left out) or "fixed" (they attach to the ground)'
             )
         if "ends" in spec and layout == "ring":
@@ -108,12 +112,12 @@ class _Cell:
         for table in (*_PART_TABLES, "parameters"):
             content = spec.get(table, {})
             if not isinstance(content, Mapping):
-                raise ModelError(f"{where}: [{table}] must be a table, got {_short(content)}")
+                raise ModelError(f"{where}: [{table}] must be a table, got {shown_value(content)}")
             for item in content:
-                here = f"[cells.{name}.{table}.{_key(item)}]"
+                here = f"[cells.{name}.{table}.{shown_key(item)}]"
                 if not _is_name(item):
                     raise ModelError(
-                        f"{here}: {_short(item)} is not a valid name (1 to 64 letters, digits, _)"
+                        f"{here}: {shown_value(item)} is not a valid name (1 to 64 letters, digits, _)"
                     )
                 # element names have a namespace of their own: `[springs.k] stiffness = "k"`
                 shared = {table, local_table.get(item)} <= {*_ELEMENT_TABLES, "parameters"} and (
@@ -137,11 +141,11 @@ class _Cell:
             if v is not None:
                 if not _is_name(v):
                     raise ModelError(
-                        f"[cells.{name}.masses.{_key(m)}] `velocity`: {_short(v)} is not a valid name"
+                        f"[cells.{name}.masses.{shown_key(m)}] `velocity`: {shown_value(v)} is not a valid name"
                     )
                 if v in local:
                     raise ModelError(
-                        f"[cells.{name}.masses.{_key(m)}] `velocity`: the name `{v}` is already {local[v]} of the cell"
+                        f"[cells.{name}.masses.{shown_key(m)}] `velocity`: the name `{v}` is already {local[v]} of the cell"
                     )
                 local[v] = "a velocity"
         self.params = dict(self.parts["parameters"])
@@ -163,7 +167,7 @@ class _Expander:
     def __init__(self, data: Mapping):
         cells = data["cells"]
         if not isinstance(cells, Mapping):
-            raise ModelError(f"[cells] must be a table of cells, got {_short(cells)}")
+            raise ModelError(f"[cells] must be a table of cells, got {shown_value(cells)}")
         if not cells:
             raise ModelError("[cells] declares no cell")
         top_params = data.get("parameters", {})
@@ -188,7 +192,7 @@ class _Expander:
         m = _CELL_REF.fullmatch(text)
         if m is None:
             raise ModelError(
-                f"{where}: {_short(text)} is not a reference to a cell's item; write CELL[k].NAME, e.g. block[1].x"
+                f"{where}: {shown_value(text)} is not a reference to a cell's item; write CELL[k].NAME, e.g. block[1].x"
             )
         cname, k, item = m.group(1), int(m.group(2)), m.group(3)
         cell = self.cells.get(cname)
@@ -257,17 +261,17 @@ class _Expander:
                 continue
             for name, spec in list(out[table].items()):
                 if isinstance(spec, Mapping):
-                    out[table][name] = self.resolve(spec, None, 0, f"[{table}.{_key(name)}]")
+                    out[table][name] = self.resolve(spec, None, 0, f"[{table}.{shown_key(name)}]")
         for cell in self.cells.values():
             for table in _PART_TABLES:
                 if not isinstance(out[table], dict):
-                    raise ModelError(f"[{table}] must be a table, got {_short(out[table])}")
+                    raise ModelError(f"[{table}] must be a table, got {shown_value(out[table])}")
             for i in range(1, cell.count + 1):
                 for table in _PART_TABLES:
                     for local, spec in cell.parts[table].items():
                         here = f"[cells.{cell.name}.{table}.{local}]"
                         if not isinstance(spec, Mapping):
-                            raise ModelError(f"{here} must be a table, got {_short(spec)}")
+                            raise ModelError(f"{here} must be a table, got {shown_value(spec)}")
                         new = self.resolve(spec, cell, i, here)
                         if new is None:  # reaches past the free end of a chain
                             continue
@@ -281,11 +285,11 @@ class _Expander:
                         out[table][gen] = new
                         self.origins[gen] = f"{here} (copy {i} of {cell.count}, `{gen}`)"
             if not isinstance(out["parameters"], dict):
-                raise ModelError(f"[parameters] must be a table, got {_short(out['parameters'])}")
+                raise ModelError(f"[parameters] must be a table, got {shown_value(out['parameters'])}")
             for local, spec in cell.params.items():
                 here = f"[cells.{cell.name}.parameters.{local}]"
                 if not isinstance(spec, Mapping):
-                    raise ModelError(f"{here} must be a table, got {_short(spec)}")
+                    raise ModelError(f"{here} must be a table, got {shown_value(spec)}")
                 for i in range(1, cell.count + 1):
                     gen = cell.copy_name(local, i)
                     if gen in out["parameters"]:
@@ -336,24 +340,24 @@ class _Expander:
                 if not isinstance(value, Mapping):
                     flat[key] = value
                     continue
-                where = f"[presets.{_key(pname)}.{_key(key)}]"
+                where = f"[presets.{shown_key(pname)}.{shown_key(key)}]"
                 cell = self.cells.get(key)
                 if cell is None:
                     raise ModelError(
                         f"{where}: a table in a preset gives the per-copy parameters of a cell, and there is no "
-                        f"cell `{_key(key)}`; cells: {', '.join(self.cells)}"
+                        f"cell `{shown_key(key)}`; cells: {', '.join(self.cells)}"
                     )
                 for local, spec in value.items():
                     if local not in cell.params:
                         have = ", ".join(cell.params) or "none"
                         raise ModelError(
-                            f"{where}: `{_key(local)}` is not a parameter of cell `{cell.name}`; its parameters: {have}"
+                            f"{where}: `{shown_key(local)}` is not a parameter of cell `{cell.name}`; its parameters: {have}"
                         )
                     for k, v in enumerate(_per_copy(spec, cell.count, f"{where} `{local}`"), start=1):
                         gen = cell.copy_name(local, k)
                         if gen in values:
                             raise ModelError(
-                                f"[presets.{_key(pname)}]: `{gen}` is given twice ({where} sets it too)"
+                                f"[presets.{shown_key(pname)}]: `{gen}` is given twice ({where} sets it too)"
                             )
                         flat[gen] = v
             out[pname] = flat
@@ -371,17 +375,17 @@ def _per_copy(spec: object, n: int, where: str) -> list[float]:
             )
         for k, v in enumerate(spec, start=1):
             if not _number(v):
-                raise ModelError(f"{where}: value {k} is {_short(v)}, not a finite number")
+                raise ModelError(f"{where}: value {k} is {shown_value(v)}, not a finite number")
         return [float(v) for v in spec]
     if isinstance(spec, Mapping):
         if len(spec) != 1 or next(iter(spec)) not in _DISTRIBUTIONS:
             raise ModelError(
                 f"{where}: a distribution is one of {{ linear = [a, b] }} (from a in copy 1 to b in copy N) or "
-                f"{{ alternating = [a, b, ...] }} (repeated in turn), got {_short(dict(spec))}"
+                f"{{ alternating = [a, b, ...] }} (repeated in turn), got {shown_value(dict(spec))}"
             )
         kind, args = next(iter(spec.items()))
         if not isinstance(args, list) or not args or not all(_number(a) for a in args):
-            raise ModelError(f"{where}: `{kind}` takes a list of finite numbers, got {_short(args)}")
+            raise ModelError(f"{where}: `{kind}` takes a list of finite numbers, got {shown_value(args)}")
         if kind == "linear":
             if len(args) != 2:
                 raise ModelError(f"{where}: `linear` takes two numbers [a, b], got {len(args)}")
@@ -390,7 +394,7 @@ def _per_copy(spec: object, n: int, where: str) -> list[float]:
         return [float(args[k % len(args)]) for k in range(n)]
     raise ModelError(
         f"{where}: give one number, a list of {n} numbers, or a distribution ({{ linear = [a, b] }}, "
-        f"{{ alternating = [a, b] }}), got {_short(spec)}"
+        f"{{ alternating = [a, b] }}), got {shown_value(spec)}"
     )
 
 

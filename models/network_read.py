@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from hybrid import ExpressionError, ModelError
 from hybrid.model.expr import parse
-from hybrid.model.loader import _key, _short  # how a file's values are quoted in messages: one place
+from hybrid.model.loader import shown_key, shown_value  # a file's values shown alike in messages
 
 from .network_cells import expand_cells
 
@@ -187,16 +187,16 @@ class Network:
 def _table(data: Mapping, key: str) -> Mapping:
     value = data.get(key, {})
     if not isinstance(value, Mapping):
-        raise ModelError(f"[{key}] must be a table, got {type(value).__name__} {_short(value)}")
+        raise ModelError(f"[{key}] must be a table, got {type(value).__name__} {shown_value(value)}")
     return value
 
 
 def _check_keys(spec: object, required: set[str], optional: set[str], where: str) -> Mapping:
     if not isinstance(spec, Mapping):
-        raise ModelError(f"{where} must be a table, got {_short(spec)}")
+        raise ModelError(f"{where} must be a table, got {shown_value(spec)}")
     extra = set(spec) - required - optional
     if extra:
-        shown = ", ".join(_key(k) for k in sorted(map(str, extra))[:5])
+        shown = ", ".join(shown_key(k) for k in sorted(map(str, extra))[:5])
         raise ModelError(
             f"{where}: unknown key(s) {shown}; allowed: {', '.join(sorted(required | optional))}"
         )
@@ -219,7 +219,7 @@ def _is_name(name: object) -> bool:
 def _coef(value: object, params: Mapping[str, str], where: str) -> str:
     """An element's coefficient as expression text: a number or an expression of parameters."""
     if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise ModelError(f"{where} must be a number or an expression of parameters, got {_short(value)}")
+        raise ModelError(f"{where} must be a number or an expression of parameters, got {shown_value(value)}")
     if not isinstance(value, str):
         if not math.isfinite(value):
             raise ModelError(f"{where} must be finite, got {value!r}")
@@ -282,15 +282,15 @@ def read_network(data: Mapping) -> Network:
         beyond the limits of size, ...
     """
     if not isinstance(data, Mapping):
-        raise ModelError(f"a network file must be a table, got {_short(data)}")
+        raise ModelError(f"a network file must be a table, got {shown_value(data)}")
     extra = set(data) - _TOP
     if extra:
-        shown = ", ".join(_key(k) for k in sorted(map(str, extra))[:5])
+        shown = ", ".join(shown_key(k) for k in sorted(map(str, extra))[:5])
         raise ModelError(f"network file: unknown table(s) {shown}; allowed: {', '.join(sorted(_TOP))}")
     model = _check_keys(_table(data, "model"), {"name", "format"}, _MODEL - {"name", "format"}, "[model]")
     for k, v in model.items():
         if not isinstance(v, str):
-            raise ModelError(f"[model] `{k}` must be a string, got {_short(v)}")
+            raise ModelError(f"[model] `{k}` must be a string, got {shown_value(v)}")
     if model["format"] != "network":
         raise ModelError(f'[model] `format` is {model["format"]!r}; this reader takes "network"')
     original = data
@@ -298,9 +298,9 @@ def read_network(data: Mapping) -> Network:
 
     def loc(table: str, name: object) -> str:
         return (
-            origins.get(name) or f"[{table}.{_key(name)}]"
+            origins.get(name) or f"[{table}.{shown_key(name)}]"
             if isinstance(name, str)
-            else f"[{table}.{_key(name)}]"
+            else f"[{table}.{shown_key(name)}]"
         )
 
     params: dict[str, str] = {}
@@ -313,7 +313,7 @@ def read_network(data: Mapping) -> Network:
     presets = _table(data, "presets")
     for pset, values in presets.items():
         if not isinstance(values, Mapping):
-            raise ModelError(f"[presets.{_key(pset)}] must be a table of parameter values")
+            raise ModelError(f"[presets.{shown_key(pset)}] must be a table of parameter values")
 
     names: dict[str, str] = {GROUND: "the ground"}
 
@@ -322,7 +322,7 @@ def read_network(data: Mapping) -> Network:
         # (`[springs.k1] stiffness = "k1"`): their names name no variable, parameter or definition
         # of the model (a friction element's f_NAME, w_NAME are checked when the system is built)
         if not _is_name(name):
-            raise ModelError(f"{what}: {_short(name)} is not a valid name (1 to 64 letters, digits, _)")
+            raise ModelError(f"{what}: {shown_value(name)} is not a valid name (1 to 64 letters, digits, _)")
         if name in ("t", "pi"):
             raise ModelError(f"{what}: the name `{name}` is reserved")
         if name in names:
@@ -395,11 +395,11 @@ def read_network(data: Mapping) -> Network:
             claim(name, where, element=True)
             ends = spec["between"]
             if not (isinstance(ends, list) and len(ends) == 2 and all(isinstance(e, str) for e in ends)):
-                raise ModelError(f"{where} `between` must be a list of two names, got {_short(ends)}")
+                raise ModelError(f"{where} `between` must be a list of two names, got {shown_value(ends)}")
             for end in ends:
                 if end not in points:
                     raise ModelError(
-                        f"{where} `between`: unknown end `{_key(end)}`; masses: {_listed(masses)}; "
+                        f"{where} `between`: unknown end `{shown_key(end)}`; masses: {_listed(masses)}; "
                         f"nodes: {_listed(nodes) or 'none'}; or {GROUND}"
                     )
             if ends[0] == ends[1]:
@@ -421,7 +421,7 @@ def read_network(data: Mapping) -> Network:
         claim(name, where)
         if not isinstance(spec["on"], str) or spec["on"] not in masses:
             raise ModelError(
-                f"{where} `on` = {_short(spec['on'])}: a force acts on a mass; masses: {_listed(masses)}"
+                f"{where} `on` = {shown_value(spec['on'])}: a force acts on a mass; masses: {_listed(masses)}"
             )
         if "amplitude" in spec and "harmonics" in spec:
             raise ModelError(f"{where}: give `amplitude` (one harmonic) or `harmonics` (several), not both")
@@ -499,7 +499,7 @@ def _harmonics(value: object, params: Mapping[str, str], where: str) -> tuple:
     if not isinstance(value, list) or not value or len(value) > MAX_HARMONICS:
         raise ModelError(
             f"{where} `harmonics` must be a list of 1 to {MAX_HARMONICS} tables "
-            f"{{ amplitude = ..., multiple = N, phase = ... }}, got {_short(value)}"
+            f"{{ amplitude = ..., multiple = N, phase = ... }}, got {shown_value(value)}"
         )
     out = []
     seen = set()
@@ -511,7 +511,7 @@ def _harmonics(value: object, params: Mapping[str, str], where: str) -> tuple:
         n = h.get("multiple", 1)
         if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000:
             raise ModelError(
-                f"{at} `multiple` must be an integer from 1 to 1000 (of `frequency`), got {_short(n)}"
+                f"{at} `multiple` must be an integer from 1 to 1000 (of `frequency`), got {shown_value(n)}"
             )
         if n in seen:
             raise ModelError(

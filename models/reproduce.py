@@ -34,8 +34,8 @@ from contextlib import nullcontext
 from pathlib import Path
 
 from hybrid import ProgressBar
-from hybrid.cli.common import info, positive_float, results, writable_folder
 from hybrid.core.budget import deadline_passed, time_limit
+from hybrid.core.commands import info, positive_float, results, writable_folder
 from hybrid.core.files import check_target, os_error_text
 from hybrid.core.workers import ProcessPool, Terminated, cap_workers
 from hybrid.engine.io import to_json  # one JSON convention (non-finite floats as null) for every output

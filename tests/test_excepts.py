@@ -1,7 +1,7 @@
 """No broad ``except`` that swallows (issue 29, item 3): read from the source with :mod:`ast`.
 
 A handler of a bare ``except:``, ``except Exception`` or ``except BaseException`` (alone, in a
-tuple, or through a module-level tuple of exception classes such as ``_FAILURES``, also one
+tuple, or through a module-level tuple of exception classes such as ``STEP_FAILURES``, also one
 imported from another module of the package) must re-raise: its last statement a bare ``raise``
 or a ``raise ... from ...``, and no ``return``, ``break`` or ``continue`` in it that would leave
 without raising. Otherwise it must be in :data:`ALLOWED` with its reason: such a catch turns a

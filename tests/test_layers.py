@@ -10,13 +10,24 @@ Read from the source with :mod:`ast` (nothing is imported): every ``import`` of 
 * a private name (``_x``) imported from another subpackage;
 * an import of a ``hybrid`` module inside a function (the usual way to dodge a cycle), except
   the figures of :mod:`hybrid.plot` imported by a subcommand of :mod:`hybrid.cli` when it draws
-  one (:data:`LAZY`: matplotlib costs a third of a second of every command's start-up).
+  one (:data:`LAZY`: matplotlib costs a third of a second of every command's start-up);
+* a private attribute of another subpackage reached on an object, ``obj._x`` (issue 29). Without
+  types this is a heuristic on names: each subpackage's private names are collected (``def _x``,
+  ``class _X``, ``self._x = ...``, ``_X = ...`` at module or class level:
+  :func:`private_names.defined_private_names`), and ``obj._x`` in a module is flagged when ``_x``
+  is defined by another subpackage and not by the module's own. ``self._x`` and ``cls._x``,
+  dunders and the namedtuple API (``_replace``, ``_asdict``, ``_fields``, ...) are allowed; so is a
+  private name that no module of ``hybrid`` defines (another library's, e.g. ``os._exit``). A name
+  that both subpackages define passes unseen: the check finds a reach across subpackages, it cannot
+  prove there is none.
 """
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
+
+from private_names import defined_private_names, private_attribute_uses
 
 ROOT = Path(__file__).resolve().parents[1] / "hybrid"
 
@@ -165,3 +176,84 @@ def test_no_import_of_hybrid_inside_a_function():
         if inner and not any(m.startswith(a) and t.startswith(b) for a, b in LAZY)
     ]
     assert bad == []
+
+
+def _by_subpackage() -> dict[str, dict[str, str]]:
+    """subpackage (the root: "hybrid") -> {module: source} of ``hybrid/``."""
+    out: dict[str, dict[str, str]] = {}
+    for path in sorted(ROOT.rglob("*.py")):
+        module = _module_name(path)
+        parts = module.split(".")
+        out.setdefault(parts[1] if len(parts) > 1 else "hybrid", {})[module] = path.read_text()
+    return out
+
+
+def private_attributes_across(sources: dict[str, dict[str, str]]) -> list[str]:
+    """``obj._x`` in a module of one subpackage where ``_x`` is private to another (see the module's
+    docstring for the heuristic); ``sources``: subpackage -> {module: source}."""
+    trees = {sub: {m: ast.parse(src, m) for m, src in mods.items()} for sub, mods in sources.items()}
+    defined = {sub: set().union(*map(defined_private_names, mods.values())) for sub, mods in trees.items()}
+    bad = []
+    for sub, mods in trees.items():
+        for m, tree in mods.items():
+            for line, obj, name in private_attribute_uses(tree):
+                owners = sorted(s for s, names in defined.items() if s != sub and name in names)
+                if owners and name not in defined[sub]:
+                    bad.append(
+                        f"{m}:{line} reaches {ast.unparse(obj)}.{name}, private to {', '.join(owners)}"
+                    )
+    return bad
+
+
+def test_the_private_attribute_check_flags_a_reach_across_subpackages():
+    # issue 29: an integrator calling a compiled mode's generated function by its private name
+    sources = {
+        "model": {
+            "hybrid.model.m": (
+                "_TABLE = {}\n"
+                "class Mode:\n"
+                "    _kind = 'plain'\n"
+                "    def __init__(self):\n"
+                "        self._res_fn = len\n"
+                "    def _helper(self):\n"
+                "        return self._res_fn\n"
+            )
+        },
+        "integrators": {
+            "hybrid.integrators.i": (
+                "from ..model import m\n"
+                "def step(mode, tr):\n"
+                "    mode._res_fn(())\n"  # flagged: defined by model only
+                "    mode._helper()\n"  # flagged
+                "    getattr(mode, '_kind')\n"  # flagged: a class-level name, reached by getattr
+                "    m._TABLE.clear()\n"  # flagged: a module-level name
+                "    tr._replace(t=0.0)\n"  # the namedtuple API
+                "    mode.__class__\n"  # a dunder
+                "    mode._own()\n"  # defined here too
+                "    import os; os._exit\n"  # defined by no module of hybrid
+                "class Solver:\n"
+                "    def __init__(self):\n"
+                "        self._state = None\n"
+                "    def _own(self):\n"
+                "        return self._helper\n"  # self: allowed
+            )
+        },
+    }
+    bad = private_attributes_across(sources)
+    assert bad == [
+        "hybrid.integrators.i:3 reaches mode._res_fn, private to model",
+        "hybrid.integrators.i:4 reaches mode._helper, private to model",
+        "hybrid.integrators.i:5 reaches mode._kind, private to model",
+        "hybrid.integrators.i:6 reaches m._TABLE, private to model",
+    ]
+    # the same reach from the subpackage that defines the name is not flagged
+    assert (
+        private_attributes_across(
+            {"model": {**sources["model"], "hybrid.model.n": "def f(mode):\n    return mode._helper\n"}}
+        )
+        == []
+    )
+
+
+def test_no_private_attribute_across_subpackages():
+    assert private_attributes_across(_by_subpackage()) == []

@@ -4,22 +4,31 @@ Bad input is reported in one line on stderr with exit code 2, before any integra
 (:class:`UsageError`, raised here and caught by :func:`hybrid.cli.main.main`). An output folder is
 checked before any computation (:func:`writable_folder`) and written through
 :func:`results` (:class:`hybrid.core.files.OutputFiles`: locked for the run, files renamed into
-place at its end).
+place at its end). Those two, the error, the argument types and :func:`info` are those of
+:mod:`hybrid.core.commands` (what a subcommand of an installed package uses too), re-exported.
 """
 
 from __future__ import annotations
 
 import argparse
 import errno
-import math
 import os
-import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 
-from ..core.errors import InputError, OutputError
-from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text
+from ..core.commands import UsageError as UsageError  # what any subcommand shares, re-exported
+from ..core.commands import command_line as command_line
+from ..core.commands import folder_note as folder_note
+from ..core.commands import info as info
+from ..core.commands import int_at_least as int_at_least
+from ..core.commands import nonnegative_int as nonnegative_int
+from ..core.commands import positive_float as positive_float
+from ..core.commands import positive_int as positive_int
+from ..core.commands import results as results
+from ..core.commands import writable_folder as writable_folder
+from ..core.errors import OutputError
+from ..core.files import os_error_text
 from ..engine.simulate import initial_state
 from ..integrators.options import SolverOptions
 from ..integrators.registry import METHODS, NAMES
@@ -34,10 +43,6 @@ MAX_SAMPLES_PER_PERIOD = 100_000
 
 #: Help of `--out` (see `default_output_dir`).
 OUT_HELP = "output folder (default out/NAME: the built-in model's name, or the stem of the model file)"
-
-
-class UsageError(InputError):
-    """Bad command-line input."""
 
 
 def pairs(items: Sequence[str] | None, option: str) -> dict[str, float]:
@@ -113,35 +118,6 @@ def parameters(system: HybridSystem, args) -> tuple[str | None, dict[str, float]
             raise UsageError(f"model `{system.name}` has no parameter `Omega` for --omega")
         values["Omega"] = omega
     return preset, system.parameter_values(values, preset=preset)
-
-
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
-    return value
-
-
-def int_at_least(lo: int):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if value < lo:
-            raise argparse.ArgumentTypeError(f"must be an integer >= {lo}, got {text}")
-        return value
-
-    return parse
-
-
-positive_int = int_at_least(1)
-
-
-nonnegative_int = int_at_least(0)
 
 
 def add_model_args(p: argparse.ArgumentParser, omega: bool = True) -> None:
@@ -235,10 +211,6 @@ def solver_options(args, *, wall_time: bool = True) -> SolverOptions:
     return SolverOptions(method=cls(**settings), **budget)
 
 
-def info(msg: str) -> None:
-    print(msg, file=sys.stderr)
-
-
 def announce(system: HybridSystem, preset: str | None, params: dict[str, float]) -> None:
     if preset:
         info(
@@ -293,71 +265,6 @@ def output_dir(system: HybridSystem, args) -> Path:
             raise UsageError("`--out` needs a folder path, got an empty string")
         out = Path(args.out)
     return writable_folder(out)
-
-
-def writable_folder(out: Path) -> Path:
-    """``out`` (the folder of ``--out``), created and checked writable before any computation.
-
-    A file is created and removed in it, and its device must have at least
-    :data:`hybrid.core.files.MIN_FREE_BYTES` free (and a free inode where it counts them).
-
-    Raises
-    ------
-    UsageError
-        It exists and is not a folder, cannot be created or written (no permission, a read-only
-        file system, a name too long), or its device is full; the message names the path, the
-        cause and what to do.
-    """
-    try:
-        if out.exists() and not out.is_dir():
-            raise UsageError(f"`--out {out}`: exists and is not a folder")
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".hybrid-write-test-{os.getpid()}"
-        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        os.close(fd)
-        probe.unlink()
-        free, inodes = free_bytes(out)
-    except OSError as exc:
-        raise UsageError(os_error_text(exc, out)) from None
-    if free < MIN_FREE_BYTES or inodes == 0:
-        what = f"{free} bytes" if free < MIN_FREE_BYTES else "no inode"
-        raise UsageError(
-            f"cannot write {str(out)!r}: its device has {what} free (ENOSPC): free some space, or choose "
-            "a folder on another disk (--out), and run again"
-        )
-    return out
-
-
-def command_line() -> str:
-    """This command as typed (for the lock of an output folder: who holds it)."""
-    text = "hybrid " + " ".join(sys.argv[1:]) if len(sys.argv) > 1 else "hybrid"
-    return text if len(text) <= 200 else text[:197] + "..."
-
-
-def results(out: Path, names: Iterable[str]) -> OutputFiles:
-    """The files of a command in ``out`` (:class:`hybrid.core.files.OutputFiles`, a context manager):
-    the folder locked for the run (another run there is refused at once), every file's place
-    checked, the files written in a staging folder (:meth:`~hybrid.core.files.OutputFiles.path`)
-    and renamed into place when the run ends (by success, budget or interrupt); a note on stderr
-    when a run killed in this folder left its lock and leftovers (removed)."""
-    return _Results(out, names, command_line())
-
-
-class _Results(OutputFiles):
-    def __enter__(self):
-        super().__enter__()
-        if self.lock is not None:
-            folder_note(self.lock)
-        return self
-
-
-def folder_note(lock) -> None:
-    """The note of :func:`results` for a bare :class:`hybrid.core.files.FolderLock`."""
-    if lock.stale:
-        info(
-            f"note: an earlier run in {str(lock.folder)!r} (pid {lock.stale.get('pid')}) ended without "
-            "cleaning up" + (f"; removed what it left: {', '.join(lock.removed)}" if lock.removed else "")
-        )
 
 
 class StreamClosed(OutputError):

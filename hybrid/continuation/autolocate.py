@@ -90,7 +90,7 @@ class Locator:
 
     def between(self, q1: AutoPoint, q2: AutoPoint, lam: float) -> AutoPoint:
         """The point ``lam`` of the way along the chord from ``q1`` to ``q2``, the chord's direction its
-        tangent (see :meth:`hybrid.continuation.forced._Continuer.between`)."""
+        tangent (see :meth:`hybrid.continuation.forced.OrbitContinuer.between`)."""
         t = q2.u - q1.u
         return AutoPoint(q1.u + lam * t, t / max(float(np.linalg.norm(t)), 1e-300), None)
 

@@ -53,12 +53,23 @@ from ..orbits.shooting import solve_orbit
 from .branch import Branch, forcing_parameter
 from .special import SpecialPoint, detect, locate
 
-__all__ = ["SpecialPoint", "continue_orbits"]
+__all__ = [
+    "SpecialPoint",
+    "continue_orbits",
+    "ContinuationPoint",
+    "OrbitContinuer",
+    "StepFailed",
+    "STEP_FAILURES",
+    "follow_branch",
+    "row_weights",
+]
 
-_FAILURES = (ArithmeticError, RuntimeError, np.linalg.LinAlgError)
+#: The exceptions of a run or a linear solve that make a corrector step fail (as :class:`StepFailed`
+#: does): the step is retried shorter, or the branch stops, instead of the exception propagating.
+STEP_FAILURES = (ArithmeticError, RuntimeError, np.linalg.LinAlgError)
 
 #: How much tighter (rtol and atol) the rerun of a probe is that estimates the integration error of
-#: its phases (:meth:`_Continuer.rerun`).
+#: its phases (:meth:`OrbitContinuer.rerun`).
 TIGHTER = 100.0
 
 
@@ -74,7 +85,7 @@ class _Summary:
         self.local_fractions = local_fractions(system, self.mode_fractions)
 
 
-class _Point:
+class ContinuationPoint:
     """A point of the branch: section state, parameter, section mode and phase; its orbit (made on
     first use where the corrector was asked for a light point) and tangent."""
 
@@ -110,7 +121,9 @@ class _Point:
 SIZE_FLOOR = 1e-12
 
 
-def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: int) -> _Point | None:
+def _gauge_member(
+    c: OrbitContinuer, pt: ContinuationPoint, new: ContinuationPoint, ds: float, samples: int
+) -> ContinuationPoint | None:
     """The gauge member of the neutral family that ``new`` (a boundary member: one grazing switch
     per period) belongs to, or None: corrected with the gauge enforced from ``pt`` along the
     step, else from ``new`` moved onto the gauge's zero set (``y - g grad g / |grad g|^2``) at
@@ -126,18 +139,38 @@ def _gauge_member(c: _Continuer, pt: _Point, new: _Point, ds: float, samples: in
             if g.size == 1
             else np.linalg.lstsq(G, g.values, rcond=None)[0]
         )
-        starts.append((_Point(y, new.p, new.mode, new.phi, tangent=new.tangent), 0.0))
+        starts.append((ContinuationPoint(y, new.p, new.mode, new.phi, tangent=new.tangent), 0.0))
     for start, step in starts:
         try:
             alt = c.correct(start, step, samples, force_gauge=True)
-        except (_Fail, *_FAILURES):
+        except (StepFailed, *STEP_FAILURES):
             continue
         if alt.orbit.transitions_per_period == 0:
             return alt
     return None
 
 
-class _Continuer:
+class OrbitContinuer:
+    """What following one branch of forced periodic orbits needs: the period map with the
+    continuation parameter free (:class:`hybrid.orbits.shooter.Shooter`, and its coarse and tight
+    variants), the scaled coordinates of the arclength, the bordered Newton corrector
+    (:meth:`correct`) and the tangent (:meth:`tangent`).
+
+    Parameters
+    ----------
+    system : HybridSystem
+    params : mapping
+        Parameter values at the start (the continuation parameter among them).
+    parameter : str
+        The continuation parameter.
+    p_range : (float, float)
+        The parameter's range ``(a, b)``; its length scales the parameter in the arclength.
+    options : SolverOptions
+    settings : ContinuationOptions
+    periods : int
+        Forcing periods the map spans (2 on the branch born at a period doubling).
+    """
+
     def __init__(
         self, system, params, parameter, p_range, options, settings: ContinuationOptions, periods: int = 1
     ):
@@ -163,10 +196,10 @@ class _Continuer:
             self.coarse.set_params(params)
 
     # scaled coordinates -------------------------------------------------
-    def scale_of(self, pt: _Point, d: np.ndarray) -> float:
+    def scale_of(self, pt: ContinuationPoint, d: np.ndarray) -> float:
         return state_scale(pt.y, d)
 
-    def scales(self, pt: _Point, d: np.ndarray) -> np.ndarray:
+    def scales(self, pt: ContinuationPoint, d: np.ndarray) -> np.ndarray:
         """``D``: unscaled = scaled x D, the state by its size in the balanced units of the
         branch's first point (:func:`hybrid.orbits.orbit.balance_scales`, kept along the branch: the
         units do not change, and scales that changed from point to point, as they do near a fold,
@@ -207,13 +240,13 @@ class _Continuer:
 
     def correct(
         self,
-        pt: _Point,
+        pt: ContinuationPoint,
         ds: float,
         samples: int,
         force_gauge: bool = False,
         light: bool = False,
         polish: bool = False,
-    ) -> _Point:
+    ) -> ContinuationPoint:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
         Returns the converged point with its orbit and tangent (from the orbit's own Jacobian);
@@ -268,13 +301,15 @@ class _Continuer:
                     staged = False  # anything but a plain run: at the requested tolerances
                     continue
             elif ahead:
-                tr = self.sh._run(y, pt.mode, t0, samples)
+                tr = self.sh.run_now(y, pt.mode, t0, samples)
             else:
                 tr = self.sh.run(y, pt.mode, t0, samples=samples)
             if not tr.success:
                 if saved is not None:
                     return saved
-                raise _Fail(f"run failed at {self.parameter}={p:.8g}: {tr.message}", "run-failed", tr.status)
+                raise StepFailed(
+                    f"run failed at {self.parameter}={p:.8g}: {tr.message}", "run-failed", tr.status
+                )
             r = nw.residual(tr, y)
             scale = state_scale(y, d)
             res = float(np.max(np.abs(r))) / scale
@@ -284,12 +319,14 @@ class _Continuer:
                 staged = False  # near the coarse map's noise (or far off): the requested map here
                 continue
             if not np.all(np.isfinite(tr.y_final)) or scale > 1e6 * max(sy, 1e-300):
-                raise _Fail(f"the response grows without bound near {self.parameter}={p:.8g}", "unbounded")
+                raise StepFailed(
+                    f"the response grows without bound near {self.parameter}={p:.8g}", "unbounded"
+                )
             if prev is not None and res > max(prev[2], 1e-3 * self.tol):
                 # Damped Newton: the map is only piecewise smooth and I - M nearly singular (below
                 # tol / 1000 the residual is not compared: there the update decides convergence).
                 if lam <= 1.0 / 16:
-                    raise _Fail(
+                    raise StepFailed(
                         f"corrector: no step decreases the residual ({prev[2]:.3g}) near "
                         f"{self.parameter}={prev[1]:.8g}",
                         "no-decrease",
@@ -306,12 +343,12 @@ class _Continuer:
             for src in (coarse, self.sh) if use else (self.sh,):
                 try:
                     Jy, Jp, M = self.jacobian(tr, y, p, pt.mode, pt.phi, nw, sh=src)
-                except (*_FAILURES, GrazingSwitchError):
+                except (*STEP_FAILURES, GrazingSwitchError):
                     if src is self.sh:
                         raise
                     continue  # (e.g. a grazing switch): the requested map's
                 A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
-                w = _row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
+                w = row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
                 A, rhs = A * w[:, None], rhs * w
                 X = np.concatenate([y[d], [p]])
                 Ab = np.vstack([A, tau / D])
@@ -339,8 +376,8 @@ class _Continuer:
                 and float(np.max(np.abs(delta / D))) <= step_tol
             ):
                 if tr.mode_final != pt.mode:
-                    raise _Fail("section reached a switch", "section-switch")
-                new = _Point(y, p, pt.mode, pt.phi, iterations=it)
+                    raise StepFailed("section reached a switch", "section-switch")
+                new = ContinuationPoint(y, p, pt.mode, pt.phi, iterations=it)
                 new.tangent = self.null_vector(A, D, tau)
                 # how far the corrector moved from the predictor, relative to the step (a jump
                 # onto another branch that crosses this one is far larger than the turn of a step)
@@ -374,7 +411,7 @@ class _Continuer:
             y = y.copy()
             y[d] += delta[:-1]
             p = float(p + delta[-1])
-        raise _Fail(
+        raise StepFailed(
             f"corrector did not converge in {max_iter} iterations near {self.parameter}={p:.8g}",
             "not-converged",
         )
@@ -383,7 +420,7 @@ class _Continuer:
         """A plain run of the coarse map, or None if it fails (anything but a plain run)."""
         try:
             tr = self.coarse.run(y, mode, t0)
-        except _FAILURES:
+        except STEP_FAILURES:
             tr = None
         finally:
             self.sh.nfev += self.coarse.nfev
@@ -392,7 +429,7 @@ class _Continuer:
             return None
         return tr
 
-    def between(self, q1: _Point, q2: _Point, lam: float) -> _Point:
+    def between(self, q1: ContinuationPoint, q2: ContinuationPoint, lam: float) -> ContinuationPoint:
         """The point ``lam`` of the way along the chord from ``q1`` to ``q2`` (same section), with the
         chord's direction as its tangent: :meth:`correct` from it with ``ds = 0`` corrects on the
         chord's normal hyperplane there."""
@@ -401,10 +438,10 @@ class _Continuer:
         nw = NewtonMap(self.sh, q1.mode)
         D = self.scales(q1, nw.d)
         t = (np.concatenate([q2.y[nw.d] - q1.y[nw.d], [q2.p - q1.p]])) / D
-        pt = _Point(y, p, q1.mode, q1.phi, tangent=t / max(float(np.linalg.norm(t)), 1e-300))
+        pt = ContinuationPoint(y, p, q1.mode, q1.phi, tangent=t / max(float(np.linalg.norm(t)), 1e-300))
         return pt
 
-    def coords(self, pt: _Point) -> np.ndarray:
+    def coords(self, pt: ContinuationPoint) -> np.ndarray:
         """``pt``'s section state and parameter in the scaled units of the branch's first point
         that gets here (to compare points of one step: see :func:`hybrid.continuation.special.locate`)."""
         nw = NewtonMap(self.sh, pt.mode)
@@ -413,7 +450,7 @@ class _Continuer:
         d, D = self._frame
         return np.concatenate([pt.y[d], [pt.p]]) / D
 
-    def rerun(self, pt: _Point, factor: float = TIGHTER) -> _Summary | None:
+    def rerun(self, pt: ContinuationPoint, factor: float = TIGHTER) -> _Summary | None:
         """The run from ``pt``'s section state at tolerances ``factor`` times tighter (IDA), as a
         summary (events, mode fractions): the difference of its phases from ``pt``'s estimates
         their integration error. None on the exact integrator, or if the run fails."""
@@ -427,11 +464,13 @@ class _Continuer:
         self.tight.set_params({**self.base, self.parameter: pt.p})
         try:
             tr = self.tight.run(pt.y, pt.mode, pt.phi * self.sh.period)
-        except _FAILURES:
+        except STEP_FAILURES:
             return None
         return _Summary(tr, self.tight.period, self.system) if tr.success else None
 
-    def complete(self, pt: _Point, nw, t0: float, it: int, res: float, samples: int, M) -> PeriodicOrbit:
+    def complete(
+        self, pt: ContinuationPoint, nw, t0: float, it: int, res: float, samples: int, M
+    ) -> PeriodicOrbit:
         """The orbit of a light point: its sampled run and amplitudes (the monodromy ``M`` is known)."""
         self.at(pt.p)
         tr = self.sh.run(pt.y, pt.mode, t0, samples=samples)
@@ -465,7 +504,7 @@ class _Continuer:
             tau = -tau
         return tau
 
-    def tangent(self, pt: _Point, prev: np.ndarray | None, direction: float) -> np.ndarray:
+    def tangent(self, pt: ContinuationPoint, prev: np.ndarray | None, direction: float) -> np.ndarray:
         nw = NewtonMap(self.sh, pt.mode)
         d = nw.d
         self.at(pt.p)
@@ -478,10 +517,10 @@ class _Continuer:
         if self.bs is None or self.bs.size != d.size:
             self.bs = balance_scales(Jy, GEOMETRY_RATIO)  # the units of the state: once per branch
         D = self.scales(pt, d)
-        return self.null_vector(A * _row_weights(D, d.size, A.shape[0])[:, None], D, prev, direction)
+        return self.null_vector(A * row_weights(D, d.size, A.shape[0])[:, None], D, prev, direction)
 
 
-class _Fail(Exception):
+class StepFailed(Exception):
     """A failed corrector step: ``reason`` (``"run-failed"``, ``"unbounded"``, ``"no-decrease"``,
     ``"section-switch"``, ``"not-converged"``) and, for a failed run, its ``status``."""
 
@@ -495,7 +534,7 @@ def _at_a_switch(exc: Exception) -> bool:
     """A failed step that a switch at the section causes: the run ends in another mode than the
     section's, a switch there grazes (no saltation matrix), or switches pile up at an instant
     (a Zeno point, no admissible mode). The section is moved and the step tried again."""
-    if isinstance(exc, _Fail):
+    if isinstance(exc, StepFailed):
         return exc.reason == "section-switch" or exc.status in (Status.ZENO, Status.NO_ADMISSIBLE_MODE)
     return isinstance(exc, GrazingSwitchError)
 
@@ -509,7 +548,7 @@ def _at_a_switch(exc: Exception) -> bool:
 GEOMETRY_RATIO = 64.0
 
 
-def _row_weights(D: np.ndarray, nd: int, rows: int) -> np.ndarray:
+def row_weights(D: np.ndarray, nd: int, rows: int) -> np.ndarray:
     """Weights of the Newton system's rows: a residual row in the balanced units of ``D`` (its
     state part relative to its largest entry: all ones for a model in consistent units), a gauge
     row as it is."""
@@ -643,7 +682,7 @@ def continue_orbits(
         raise InputError(f"`periods` must be an integer >= 1, got {periods!r}")
     if not math.isfinite(float(t0)):
         raise InputError(f"`t0` must be a finite time, got {t0!r}")
-    c = _Continuer(system, start_params, parameter, (a, b), options, settings, periods)
+    c = OrbitContinuer(system, start_params, parameter, (a, b), options, settings, periods)
     for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
         c.at(p)
         n = settings.transient_periods + 1 if p == a else 2
@@ -668,14 +707,16 @@ def continue_orbits(
             FIRST_ORBIT_MAX_ITER,
             settings.samples_per_period,
         )
-        _follow(c, branch, first, direction, add, progress)
+        follow_branch(c, branch, first, direction, add, progress)
     except BudgetExceeded as exc:  # the budget of a run or the computation's deadline: stop here
         last = branch.points[-1].params[parameter] if branch.points else a
         branch.stop("budget", f"stopped at {parameter}={last:.8g}: {exc}")
     return branch
 
 
-def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progress, orient=None) -> None:
+def follow_branch(
+    c: OrbitContinuer, branch: Branch, first, direction: float, add, progress, orient=None
+) -> None:
     """Follow the branch from its first orbit (see :func:`continuation`); ``orient``: a scaled
     direction the first tangent points along (default: the parameter's ``direction``)."""
     st = c.settings
@@ -699,14 +740,16 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             "periodic: is the system forced at all?)",
         )
         return
-    pt = _Point(first.x0.copy(), first.params[parameter], first.mode0, first.t0 / first.period, orbit=first)
+    pt = ContinuationPoint(
+        first.x0.copy(), first.params[parameter], first.mode0, first.t0 / first.period, orbit=first
+    )
     try:
         pt.tangent = c.tangent(pt, orient, direction)
         if not first.converged:
             pt = c.correct(pt, 0.0, samples)
             first = pt.orbit
             pt.tangent = c.tangent(pt, orient, direction)
-    except (_Fail, *_FAILURES) as exc:
+    except (StepFailed, *STEP_FAILURES) as exc:
         if not first.converged:
             stop("no-start", f"no periodic orbit at {parameter}={a:.8g}: {first.message}; {exc}")
         else:
@@ -726,8 +769,8 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
     while n_points < st.max_points:
         try:
             new = c.correct(pt, ds_cur, samples)
-        except (_Fail, *_FAILURES) as exc:
-            grow = isinstance(exc, _Fail) and exc.reason == "unbounded"
+        except (StepFailed, *STEP_FAILURES) as exc:
+            grow = isinstance(exc, StepFailed) and exc.reason == "unbounded"
             # A switch moved onto the section: move the section (once per point) to the middle of
             # the longest mode interval, and retry the same step.
             if _at_a_switch(exc) and not rephased:
@@ -771,7 +814,7 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             if kind == "nonsmooth":
                 located.append((kind, desc, None))
                 continue
-            located.append((kind, desc, locate(c, pt, new, kind, ds_cur, st, (_Fail, *_FAILURES))))
+            located.append((kind, desc, locate(c, pt, new, kind, ds_cur, st, (StepFailed, *STEP_FAILURES))))
         located.sort(key=lambda k: k[2].parameter * direction if k[2] is not None else math.inf)
         pending = []
         for kind, desc, loc in located:
@@ -817,7 +860,9 @@ def _follow(c: _Continuer, branch: Branch, first, direction: float, add, progres
             break
 
 
-def _unbounded(c: _Continuer, branch: Branch, pt: _Point, new: _Point | None, why: str) -> None:
+def _unbounded(
+    c: OrbitContinuer, branch: Branch, pt: ContinuationPoint, new: ContinuationPoint | None, why: str
+) -> None:
     """End the branch at ``pt``: beyond it the response grows without bound."""
     st = c.settings
     par = c.parameter
@@ -838,15 +883,18 @@ def _unbounded(c: _Continuer, branch: Branch, pt: _Point, new: _Point | None, wh
     branch.stop("unbounded", f"stopped at {par}={pt.p:.8g}: {desc}")
 
 
-def _rephase(c: _Continuer, pt: _Point, direction: float) -> _Point | None:
+def _rephase(c: OrbitContinuer, pt: ContinuationPoint, direction: float) -> ContinuationPoint | None:
     c.at(pt.p)
     o = pt.orbit
     t, y, m = choose_section_period(c.sh.run(o.x0, o.mode0, o.t0, samples=256), c.sh.period)
-    new = _Point(y, pt.p, m, t / c.sh.period, orbit=o)
+    new = ContinuationPoint(y, pt.p, m, t / c.sh.period, orbit=o)
     if pt.tangent is not None and pt.tangent[-1] != 0.0:
         direction = float(np.sign(pt.tangent[-1]))  # keep the branch's sense, also past a fold
     try:
         new.tangent = c.tangent(new, None, direction)
-    except (_Fail, *_FAILURES):  # as at the branch's first tangent; anything else is a defect (issue 29)
+    except (
+        StepFailed,
+        *STEP_FAILURES,
+    ):  # as at the branch's first tangent; anything else is a defect (issue 29)
         return None
     return new

@@ -236,7 +236,7 @@ SMOOTH = {"fold": None, "period-doubling": 0, "neimark-sacker": 1, "branch-point
 
 
 def detect(a, b) -> list[tuple[str, str]]:
-    """Special points between two points of a branch (``_Point`` with orbit and tangent)."""
+    """Special points between two points of a branch (``ContinuationPoint`` with orbit and tangent)."""
     out = []
     oa, ob = a.orbit, b.orbit
     fold = a.tangent.size == b.tangent.size and a.tangent[-1] * b.tangent[-1] < 0
@@ -289,7 +289,7 @@ class _Located:
     def __init__(
         self, point, status: str, p: float, interval: tuple, note: str = "", tol: float | None = None
     ):
-        self.point = point  # a _Point (None: no orbit computed inside the step)
+        self.point = point  # a ContinuationPoint (None: no orbit computed inside the step)
         self.parameter, self.accuracy, self.interval = interval_fields(p, *interval)
         self.status = LocateStatus(status)
         if tol is not None:  # the status follows from the interval

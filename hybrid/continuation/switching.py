@@ -29,7 +29,7 @@ from ..orbits.newton import NewtonMap
 from ..orbits.orbit import ORBIT_OPTIONS
 from .autonomous import hopf_branch
 from .branch import Branch
-from .forced import _FAILURES, _Continuer, _Fail, _follow, _Point, _row_weights
+from .forced import STEP_FAILURES, ContinuationPoint, OrbitContinuer, StepFailed, follow_branch, row_weights
 
 __all__ = ["switch_branch", "SWITCHABLE"]
 
@@ -126,9 +126,9 @@ def _switch_orbits(branch: Branch, sp, p_range, ds, options, settings, progress)
     lo, hi = sorted(p_range)
     if not lo <= p0 <= hi:
         raise InputError(f"`p_range` ({lo:g}, {hi:g}) must contain the point's {par} = {p0:.10g}")
-    c = _Continuer(system, orbit.params, par, (lo, hi), options, settings, new_periods)
+    c = OrbitContinuer(system, orbit.params, par, (lo, hi), options, settings, new_periods)
     c.at(p0)
-    pt0 = _Point(orbit.x0.copy(), p0, orbit.mode0, orbit.t0 / c.sh.period)
+    pt0 = ContinuationPoint(orbit.x0.copy(), p0, orbit.mode0, orbit.t0 / c.sh.period)
     t_old, t_new, sv = _kernel(c, pt0, _neighbour(branch, sp.index))
     step = settings.ds / 4.0 if ds is None else float(ds)
     samples = settings.samples_per_period
@@ -139,7 +139,7 @@ def _switch_orbits(branch: Branch, sp, p_range, ds, options, settings, progress)
         pt0.tangent = sign * t_new
         try:
             first = c.correct(pt0, step, samples)
-        except (_Fail, *_FAILURES) as exc:
+        except (StepFailed, *STEP_FAILURES) as exc:
             new.stop("no-start", f"no orbit of {what} a step {step:g} from {par}={p0:.10g}: {exc}")
             out.append(new)
             continue
@@ -150,7 +150,7 @@ def _switch_orbits(branch: Branch, sp, p_range, ds, options, settings, progress)
 
         # (the continuer's range is (lo, hi): direction +1 ends the branch outside it either way;
         # the first tangent points away from the point)
-        _follow(c, new, first.orbit, 1.0, add, progress, orient=sign * t_new)
+        follow_branch(c, new, first.orbit, 1.0, add, progress, orient=sign * t_new)
         note = (
             f"switched at the {sp.kind} at {par} = {p0:.10g} ({what}"
             + (f", orbits of {new_periods} forcing periods" if doubling else f", half {'+-'[sign < 0]}")
@@ -170,7 +170,7 @@ def _neighbour(branch: Branch, k: int):
     return branch.points[min(cands, key=lambda j: abs(p[j] - p[k]) if p[j] != p[k] else math.inf)]
 
 
-def _kernel(c: _Continuer, pt: _Point, other) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _kernel(c: OrbitContinuer, pt: ContinuationPoint, other) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(old tangent, new direction, singular values)`` at ``pt`` in the continuer's scaled
     coordinates: the two right singular vectors of the smallest singular values of the scaled
     ``[M - I, dP/dp]`` span the null space at a branch point; the old branch's direction (towards
@@ -185,7 +185,7 @@ def _kernel(c: _Continuer, pt: _Point, other) -> tuple[np.ndarray, np.ndarray, n
     Jy, Jp, _ = c.jacobian(tr, y, pt.p, pt.mode, pt.phi, nw)
     A, _, _, _ = c.system_matrix(y, Jy, Jp, r, d)
     D = c.scales(pt, d)
-    A = A * _row_weights(D, d.size, A.shape[0])[:, None]
+    A = A * row_weights(D, d.size, A.shape[0])[:, None]
     _, sv, vt = np.linalg.svd(A * D[None, :])
     ker = vt[-2:]  # rows
     # the old branch's direction: towards the neighbouring orbit (its state at the same phase)

@@ -55,11 +55,12 @@ class ResetJacobians:
 
     def __call__(self, mode: CompiledMode, k: int, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         g = mode.guards[k]
-        key = (id(mode._ns), g.reset_expr)
+        # the modes of one compiled system share its namespace of run-time parameters (and slots)
+        key = (id(mode.parameter_namespace), g.reset_expr)
         rows = self._cache.get(key)
         if rows is None:
-            slots = mode._slots
-            ns = mode._ns
+            slots = mode.state_slots
+            ns = mode.parameter_namespace
             index = {nm: j for j, nm in enumerate(mode.names)}
             rows = []
             for i, e in g.reset_expr:

@@ -154,9 +154,9 @@ class ModeSolver:
         # The callbacks are the hot path of a run (about 2000 calls per forcing period): the
         # mode's generated functions are called directly, without the CompiledMode wrappers.
         # dF/dy + cj dF/dy' = jac_base + cj diag(is_diff), then the varying entries (flat indices).
-        res_fn, jac_fn, base = mode._res_fn, mode._jac_fn, mode.jac_base
+        res_fn, jac_fn, base = mode.residual_function, mode.jacobian_function, mode.jac_base
         cj_mask = np.diag(mode.is_diff.astype(float))
-        flat_at = mode._jac_at[0] * mode.n + mode._jac_at[1]
+        flat_at = mode.jacobian_entries[0] * mode.n + mode.jacobian_entries[1]
         cj_at = cj_mask.reshape(-1)[flat_at]  # cj's share of a varying entry on the diagonal
         if not cj_at.any():
             cj_at = None
@@ -186,7 +186,7 @@ class ModeSolver:
         if mode.alg_idx.size:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
-            armed, safe, gfn = self.armed, self.safe, mode._guards_fn
+            armed, safe, gfn = self.armed, self.safe, mode.guards_function
             self._all_armed = all_armed = [True]  # armed.all(), updated at every call into IDA
 
             def eventsfn(t, y, yp, out):
@@ -314,7 +314,7 @@ class SensitivitySolver:
             np.array([a for _, a, _ in varying], dtype=int),
             np.array([b for _, _, b in varying], dtype=int),
         )
-        jac_fn = mode._jac_fn
+        jac_fn = mode.jacobian_function
         self._ix = ix
         N = n + ns * ns
 
@@ -330,7 +330,7 @@ class SensitivitySolver:
         # The residual of the sensitivities in transposed form, written in place: row j of the
         # C-ordered (ns, ns) view of z[n:] is column j of Y, so the residual's rows are
         # Y^T J^T + Y'^T diag(mask) (one product, no reshaped copies).
-        res_fn = mode._res_fn
+        res_fn = mode.residual_function
         mrow = mask[None, :]
         J_const_T = self._J_const.T.copy() if self._J_const is not None else None
 

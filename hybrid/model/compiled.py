@@ -70,13 +70,13 @@ class CompiledMode(ModeMethods):
         self.names = names
         slots = {"t": 0, **{nm: i + 1 for i, nm in enumerate(names)}}
         pconst = {k: num(v) for k, v in params.items() if k not in free and k not in runtime}
-        self._slots = slots
+        self.state_slots = slots
         self._params = dict(params)
         self._runtime = tuple(runtime)
-        self._ns = namespace if namespace is not None else runtime_namespace({})
+        self.parameter_namespace = ns = namespace if namespace is not None else runtime_namespace({})
 
         def comp(e: Expr):
-            return compile_many([e], slots, namespace=self._ns, scalar=True)
+            return compile_many([e], slots, namespace=ns, scalar=True)
 
         def fold(e: Expr) -> Expr:
             return substitute(e, pconst)
@@ -96,7 +96,7 @@ class CompiledMode(ModeMethods):
             rows[i] = sub(sym(f"{_YP}{i}"), e)
         for i, e in self.g_expr.items():
             rows[i] = e
-        self._res_fn = compile_many(rows, res_slots, f"residual_{mode.name}", namespace=self._ns)
+        self.residual_function = compile_many(rows, res_slots, f"residual_{mode.name}", namespace=ns)
         self._f_pos = np.array(sorted(self.f_expr), dtype=int)
 
         # dF/dy: constant entries in a dense base matrix, the rest in one function.
@@ -112,14 +112,12 @@ class CompiledMode(ModeMethods):
                     self.jac_base[i, j] = sgn * d.args[0]
                 else:
                     self.jac_terms.append((int(i), j, d if sgn > 0 else neg(d)))
-        self._jac_fn = (
-            compile_many(
-                [e for _, _, e in self.jac_terms], slots, f"jacobian_{mode.name}", namespace=self._ns
-            )
+        self.jacobian_function = (
+            compile_many([e for _, _, e in self.jac_terms], slots, f"jacobian_{mode.name}", namespace=ns)
             if self.jac_terms
             else None
         )
-        self._jac_at = (
+        self.jacobian_entries = (
             np.array([i for i, _, _ in self.jac_terms], dtype=int),
             np.array([j for _, j, _ in self.jac_terms], dtype=int),
         )
@@ -167,8 +165,8 @@ class CompiledMode(ModeMethods):
             )
         self.guards: tuple[CompiledGuard, ...] = tuple(guards)
         self.guard_directions = np.array([g.direction for g in guards], dtype=float)
-        self._guards_fn = (
-            compile_many([g.expr for g in guards], slots, f"guards_{mode.name}", namespace=self._ns)
+        self.guards_function = (
+            compile_many([g.expr for g in guards], slots, f"guards_{mode.name}", namespace=ns)
             if guards
             else None
         )
@@ -179,7 +177,7 @@ class CompiledMode(ModeMethods):
                 [fold(data["defs"][o]) for o in system.outputs],
                 slots,
                 f"outputs_{mode.name}",
-                namespace=self._ns,
+                namespace=ns,
                 vector=True,
             )
             if system.outputs

@@ -340,8 +340,8 @@ class ComposedMode(ModeMethods):
         ind = form.indicators(key)
         self._ind = ind
         self._runtime = form._runtime
-        self._ns = form._ns
-        self._slots = form.state_slots  # as CompiledMode's: [t, y] (e.g. for the resets' Jacobians)
+        self.parameter_namespace = form._ns
+        self.state_slots = form.state_slots  # as CompiledMode's: [t, y] (e.g. for the resets' Jacobians)
         self._params = cs.params
         owner = form.owner
         nfree = len(cs.free)
@@ -355,10 +355,10 @@ class ComposedMode(ModeMethods):
         self._f_pos = self.diff_idx
         self._nfree = nfree
         res, jac, guards = form.res, form.jac, form.guards_fn
-        self._res_fn = lambda v: res([*v, *ind])
-        self._jac_fn = (lambda v: jac([*v, *ind])) if jac is not None else None
-        self._guards_fn = (lambda v: guards([*v, *ind])) if guards is not None else None
-        self._jac_at = form.jac_at
+        self.residual_function = lambda v: res([*v, *ind])
+        self.jacobian_function = (lambda v: jac([*v, *ind])) if jac is not None else None
+        self.guards_function = (lambda v: guards([*v, *ind])) if guards is not None else None
+        self.jacobian_entries = form.jac_at
         self.jac_terms = form.jac_terms
         self.jac_base = form.zeros  # every entry is in jac_terms (weighted by the indicators)
         self._ix_ad = np.ix_(self.alg_idx, self.diff_idx)
@@ -423,13 +423,13 @@ class ComposedMode(ModeMethods):
     # -- the slave block of dF/dy -----------------------------------------------------------------
     def sparse_dFdy(self, t: float, y: np.ndarray) -> sp.csr_array:
         """``dF/dy`` as a sparse matrix (rows: -df/dy differential, dg/dy slave)."""
-        i, j = self._jac_at
-        if self._jac_fn is None:
+        i, j = self.jacobian_entries
+        if self.jacobian_function is None:
             return sp.csr_array((self.n, self.n))
         return sp.csr_array((self._jac_vals(t, y), (i, j)), shape=(self.n, self.n))
 
     def _jac_vals(self, t: float, y: np.ndarray) -> np.ndarray:
-        return np.asarray(self._jac_fn([t, *np.asarray(y, dtype=float).tolist()]), dtype=float)
+        return np.asarray(self.jacobian_function([t, *np.asarray(y, dtype=float).tolist()]), dtype=float)
 
     def _pattern(self) -> tuple:
         """Where the entries of ``dF/dy`` fall in the slave rows: ``(entries, rows, columns)`` of
@@ -437,7 +437,7 @@ class ComposedMode(ModeMethods):
         and columns numbered within the blocks)."""
         hit = self.__dict__.get("_pattern_")
         if hit is None:
-            i, j = self._jac_at
+            i, j = self.jacobian_entries
             pa = np.full(self.n, -1)
             pa[self.alg_idx] = np.arange(self.alg_idx.size)
             pd = np.full(self.n, -1)
@@ -513,13 +513,13 @@ class ComposedMode(ModeMethods):
         zero = [0.0] * self.n
         res = None
         for _ in range(maxiter):
-            res = np.asarray(self._res_fn([t, *y.tolist(), *zero]), dtype=float)
+            res = np.asarray(self.residual_function([t, *y.tolist(), *zero]), dtype=float)
             step = self._slave_lu(t, y).solve(res[a])
             y[a] -= step
             if not np.all(np.isfinite(step)):
                 break
             if np.all(np.abs(step) <= tol * (1.0 + np.abs(y[a]))):
-                res = np.asarray(self._res_fn([t, *y.tolist(), *zero]), dtype=float)
+                res = np.asarray(self.residual_function([t, *y.tolist(), *zero]), dtype=float)
                 if np.all(np.isfinite(res[a])):
                     return y
         worst = np.max(np.abs(res[a])) if res is not None else float("nan")

@@ -73,6 +73,8 @@ __all__ = [
     "describe_model_file",
     "draw_model_file",
     "MAX_FILE_BYTES",
+    "shown_key",
+    "shown_value",
 ]
 
 #: Entry-point group of the model-file formats other than "modes": each entry loads an object
@@ -220,29 +222,72 @@ def _format(data: Mapping) -> object | None:
     formats = {ep.name: ep for ep in entry_points(group=FORMAT_GROUP)}
     if not isinstance(fmt, str) or fmt not in formats:
         have = ", ".join(["modes", *sorted(formats)])
-        raise ModelError(f"[model] `format` = {_short(fmt)} is not a known model format; formats: {have}")
+        raise ModelError(
+            f"[model] `format` = {shown_value(fmt)} is not a known model format; formats: {have}"
+        )
     return formats[fmt].load()
 
 
-def _short(value: object, width: int = 60) -> str:
-    """``repr`` of a value from a file, cut to ``width`` characters for messages."""
+def shown_value(value: object, width: int = 60) -> str:
+    """A value read from a model file as an error message shows it: its ``repr``, cut to ``width``
+    characters.
+
+    For the readers of other model formats (the ``build`` of :data:`FORMAT_GROUP`), so that every
+    message about a file quotes its values alike.
+
+    Parameters
+    ----------
+    value : object
+        The value as parsed (a string, a number, a table, ...).
+    width : int
+        Largest length of the text [characters] (at least 4); a longer ``repr`` ends in ``...``.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> shown_value("stick")
+    "'stick'"
+    >>> shown_value(list(range(30)), 20)
+    '[0, 1, 2, 3, 4, 5...'
+    """
     text = repr(value)
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
-def _key(name: object) -> str:
-    """A key from a file for a message: as it is if short printable text, else its cut ``repr``."""
+def shown_key(name: object) -> str:
+    """A key (a table's name) read from a model file as an error message shows it: as it is if it
+    is printable text of at most 64 characters, else its ``repr`` cut to 40 (:func:`shown_value`).
+
+    Parameters
+    ----------
+    name : object
+        The key as parsed (TOML keys are strings; a mapping built in code may hold anything).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> shown_key("slip+")
+    'slip+'
+    >>> shown_key("x" * 70)
+    "'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx..."
+    """
     if isinstance(name, str) and name.isprintable() and len(name) <= 64:
         return name
-    return _short(name, 40)
+    return shown_value(name, 40)
 
 
 def _check_keys(table: Mapping, allowed: set[str], where: str) -> None:
     if not isinstance(table, Mapping):
-        raise ModelError(f"{where} must be a table, got {_short(table)}")
+        raise ModelError(f"{where} must be a table, got {shown_value(table)}")
     extra = set(table) - allowed
     if extra:
-        shown = ", ".join(_key(k) for k in sorted(extra)[:5]) + (" ..." if len(extra) > 5 else "")
+        shown = ", ".join(shown_key(k) for k in sorted(extra)[:5]) + (" ..." if len(extra) > 5 else "")
         raise ModelError(f"{where}: unknown key(s) {shown}; allowed: {', '.join(sorted(allowed))}")
 
 
@@ -264,7 +309,9 @@ def system_from_dict(data: Mapping) -> HybridSystem:
     _check_keys(data, _TOP, "model file")
     for key in _TOP - {"transitions"}:
         if key in data and not isinstance(data[key], Mapping):
-            raise ModelError(f"[{key}] must be a table, got {type(data[key]).__name__} {_short(data[key])}")
+            raise ModelError(
+                f"[{key}] must be a table, got {type(data[key]).__name__} {shown_value(data[key])}"
+            )
     if "transitions" in data and not (
         isinstance(data["transitions"], list) and all(isinstance(t, Mapping) for t in data["transitions"])
     ):
@@ -275,22 +322,22 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         raise ModelError("[model] needs a `name`")
     for key in ("name", "title", "reference", "period", "initial_mode"):
         if key in model and not isinstance(model[key], str):
-            raise ModelError(f"[model] `{key}` must be a string, got {_short(model[key])}")
+            raise ModelError(f"[model] `{key}` must be a string, got {shown_value(model[key])}")
     plot = data.get("plot", {})
     for key in ("displacements", "shade_modes"):
         value = plot.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ModelError(f"[plot] `{key}` must be a list of names, got {_short(value)}")
+            raise ModelError(f"[plot] `{key}` must be a list of names, got {shown_value(value)}")
     for key in ("units",):
         if key in plot and not isinstance(plot[key], Mapping):
             raise ModelError(f"[plot] `{key}` must be a table of names to units")
     variables = []
     for name, spec in data.get("variables", {}).items():
-        _check_keys(spec, _VAR, f"[variables.{_key(name)}]")
+        _check_keys(spec, _VAR, f"[variables.{shown_key(name)}]")
         variables.append(Variable(name, str(spec.get("unit", "")), str(spec.get("description", ""))))
     parameters = []
     for name, spec in data.get("parameters", {}).items():
-        _check_keys(spec, _PAR, f"[parameters.{_key(name)}]")
+        _check_keys(spec, _PAR, f"[parameters.{shown_key(name)}]")
         parameters.append(
             Parameter(
                 name,
@@ -301,7 +348,7 @@ def system_from_dict(data: Mapping) -> HybridSystem:
         )
     modes = []
     for name, spec in data.get("modes", {}).items():
-        _check_keys(spec, _MODE, f"[modes.{_key(name)}]")
+        _check_keys(spec, _MODE, f"[modes.{shown_key(name)}]")
         modes.append(
             Mode(name, spec.get("derivatives", {}), spec.get("algebraic", {}), spec.get("definitions", {}))
         )
@@ -324,11 +371,11 @@ def system_from_dict(data: Mapping) -> HybridSystem:
     for key in ("quadratures", "outputs"):
         value = model.get(key, [])
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ModelError(f"[model] `{key}` must be a list of names, got {_short(value)}")
+            raise ModelError(f"[model] `{key}` must be a list of names, got {shown_value(value)}")
     presets = {}
     for pname, values in data.get("presets", {}).items():
         if not isinstance(values, Mapping):
-            raise ModelError(f"[presets.{_key(pname)}] must be a table of parameter values")
+            raise ModelError(f"[presets.{shown_key(pname)}] must be a table of parameter values")
         presets[pname] = dict(values)
     return filippov_system(
         name=str(model["name"]),

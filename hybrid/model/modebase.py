@@ -2,10 +2,9 @@
 
 Shared by :class:`hybrid.model.compiled.CompiledMode` (a mode compiled on its own) and
 :class:`hybrid.model.composed.ComposedMode` (a mode of a system with components, a view of
-functions compiled once for all its modes). Both provide the attributes these methods read:
-``n``, ``names``, ``name``, ``diff_idx``, ``alg_idx``, ``f_expr``, ``g_expr``, ``g_t``,
-``jac_base``, ``_jac_fn``, ``_jac_at``, ``_res_fn``, ``_f_pos``, ``_gzz_inv``, ``_ix_ad``,
-``_ix_aa``, ``guards``, ``_guards_fn``, ``_outputs_vec``, ``_runtime``, ``_ns``.
+functions compiled once for all its modes). Both provide the public attributes listed in
+:class:`ModeMethods` (what the integrators and the variational equations read) and, private to
+this subpackage, ``_f_pos``, ``_gzz_inv``, ``_ix_ad``, ``_ix_aa``, ``_outputs_vec``, ``_runtime``.
 """
 
 from __future__ import annotations
@@ -20,7 +19,48 @@ __all__ = ["ModeMethods"]
 
 class ModeMethods:
     """Residual, Jacobian, slave variables, consistent derivatives, guards and Taylor series of a
-    compiled mode (plain arrays in and out)."""
+    compiled mode (plain arrays in and out).
+
+    The generated functions themselves are public too, for the hot paths that call them without
+    these wrappers (an integrator's callbacks, about 2000 calls per forcing period). Each takes
+    one flat list of floats ``v``: ``[t, y_1, ..., y_n]`` (the positions of :attr:`state_slots`),
+    followed by ``[y'_1, ..., y'_n]`` for the residual.
+
+    Attributes
+    ----------
+    n : int
+        Number of state variables (free parameters appended last, see
+        :class:`hybrid.model.compiled.CompiledMode`).
+    names : tuple of str
+        The state variables, in state order.
+    residual_function : callable
+        ``v = [t, *y, *y'] -> F``: the DAE residual, a sequence of ``n`` floats (differential rows
+        ``y'_i - f_i(t, y)``, slave rows ``g_i(t, y)``); units those of the row's equation.
+    is_diff : ndarray of bool, shape (n,)
+        Whether each variable is differential (else a slave variable) in this mode.
+    jac_base : ndarray, shape (n, n)
+        The entries of ``dF/dy`` that do not depend on ``(t, y)`` (zero where they do).
+    jacobian_function : callable or None
+        ``v = [t, *y] ->`` the entries of ``dF/dy`` that depend on ``(t, y)``, in the order of
+        :attr:`jacobian_entries`; None where every entry is constant (:attr:`jac_base` is all).
+        ``dF/dy'`` is ``diag(is_diff)``.
+    jacobian_entries : tuple of two int ndarrays
+        ``(rows, columns)`` of the values of :attr:`jacobian_function` in ``dF/dy``.
+    guards : sequence of hybrid.model.compiled.CompiledGuard
+        The guards of the transitions leaving the mode, by index.
+    guards_function : callable or None
+        ``v = [t, *y] ->`` the values of all :attr:`guards` at once, by index (None without
+        guards).
+    state_slots : dict of str to int
+        The position of ``t`` (0) and of each state variable in ``v``: the slots with which
+        further expressions of the mode's variables compile
+        (:func:`hybrid.model.codegen.compile_scalar`), e.g. the derivatives of a reset.
+    parameter_namespace : dict
+        The namespace from which the generated functions read the parameters set at run time
+        (:func:`hybrid.model.codegen.runtime_namespace`), shared by every mode of one
+        :class:`hybrid.model.compiled.CompiledSystem`; a function compiled with it follows
+        :meth:`hybrid.model.compiled.CompiledSystem.set_runtime` as the mode's own do.
+    """
 
     def outputs_at(self, t: np.ndarray, Y: np.ndarray) -> list[np.ndarray] | None:
         """The system's outputs at samples ``(t[i], Y[i])`` of this mode, one array per output (in
@@ -36,20 +76,20 @@ class ModeMethods:
     def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
         env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
         for p in self._runtime:
-            env[p] = self._ns[f"_p_{p}"]
+            env[p] = self.parameter_namespace[f"_p_{p}"]
         return env
 
     # ------------------------------------------------------------------
     # Residual and Jacobian (backend-independent: plain arrays in and out)
     def residual(self, t: float, y: np.ndarray, yp: np.ndarray, out: np.ndarray) -> None:
         """Fill ``out`` with the DAE residual ``F(t, y, y')``."""
-        out[: self.n] = self._res_fn([t, *y[: self.n].tolist(), *yp[: self.n].tolist()])
+        out[: self.n] = self.residual_function([t, *y[: self.n].tolist(), *yp[: self.n].tolist()])
 
     def jacobian(self, t: float, y: np.ndarray, cj: float, out: np.ndarray) -> None:
         """Fill ``out`` with ``dF/dy + cj dF/dy'``."""
         out[:, :] = self.jac_base
-        if self._jac_fn is not None:
-            out[self._jac_at] = self._jac_fn([t, *y.tolist()])
+        if self.jacobian_function is not None:
+            out[self.jacobian_entries] = self.jacobian_function([t, *y.tolist()])
         d = self.diff_idx
         out[d, d] += cj
 
@@ -91,7 +131,7 @@ class ModeMethods:
         """Derivatives of the differential variables (zeros at slave positions)."""
         y = np.asarray(y, dtype=float)
         out = np.zeros(self.n)
-        F = self._res_fn([t, *y.tolist(), *([0.0] * self.n)])
+        F = self.residual_function([t, *y.tolist(), *([0.0] * self.n)])
         p = self._f_pos
         out[p] = np.negative(np.take(F, p))
         return out
@@ -148,9 +188,9 @@ class ModeMethods:
 
     def guard_values(self, t: float, y: np.ndarray) -> np.ndarray:
         """Values of this mode's guards at ``(t, y)``."""
-        if self._guards_fn is None:
+        if self.guards_function is None:
             return np.zeros(0)
-        return np.array(self._guards_fn([t, *np.asarray(y, dtype=float).tolist()]))
+        return np.array(self.guards_function([t, *np.asarray(y, dtype=float).tolist()]))
 
     def guard_slot(self, name: str) -> int | None:
         """The index of the guard of the transition called ``name`` (None: the mode has none)."""

@@ -395,7 +395,7 @@ def _sequence_candidate(shooter, nw, tr, y, mode0, t0, samples, res_norm, tol):
         y_new = nw.project(t0, y_new)
     except NO_CONSISTENT_POINT:  # no consistent point there
         return None
-    run = shooter._run(y_new, mode0, t0, samples)
+    run = shooter.run_now(y_new, mode0, t0, samples)
     if not run.success or not np.all(np.isfinite(run.y_final)):
         return None
     res = float(np.max(np.abs(nw.residual(run, y_new)))) / state_scale(y_new, nw.d)
@@ -560,7 +560,7 @@ def _line_search(shooter, nw, y, mode0, t0, step, pinv, picked, res0, samples=No
             lam *= 0.5
             continue
         tr = (
-            shooter._run(y_new, mode0, t0, samples)
+            shooter.run_now(y_new, mode0, t0, samples)
             if (samples and lam == 1.0)
             else shooter.run(y_new, mode0, t0)
         )

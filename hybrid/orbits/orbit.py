@@ -595,7 +595,7 @@ def finish_orbit(
     """
     sys_ = shooter.system
     names = shooter.names
-    tr = shooter._run(y, mode0, t0, samples) if tr is None else sampled_trajectory(tr)
+    tr = shooter.run_now(y, mode0, t0, samples) if tr is None else sampled_trajectory(tr)
     if M is None:
         M = shooter.monodromy(tr)
     s = shooter.s

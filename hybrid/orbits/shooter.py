@@ -137,12 +137,39 @@ class Shooter:
 
         A run that exhausts its budget raises :class:`hybrid.core.errors.BudgetExceeded`.
         """
-        tr = self._run(y0, mode0, t0, None)
+        tr = self.run_now(y0, mode0, t0, None)
         if samples and tr.success:
-            return DeferredTrajectory(tr, lambda: self._run(y0, mode0, t0, samples))
+            return DeferredTrajectory(tr, lambda: self.run_now(y0, mode0, t0, samples))
         return tr
 
-    def _run(self, y0: np.ndarray, mode0: str, t0: float, samples: int | None) -> Trajectory:
+    def run_now(self, y0: np.ndarray, mode0: str, t0: float, samples: int | None = None) -> Trajectory:
+        """One period from ``(t0, y0, mode0)`` (quadratures reset to 0), made at once.
+
+        Every run of the map goes through here (:meth:`run` included): its residual evaluations are
+        added to ``nfev``.
+
+        Parameters
+        ----------
+        y0 : ndarray, shape (n,)
+            State at ``t0`` (the model's units).
+        mode0 : str
+            Mode at ``t0``.
+        t0 : float
+            Start time [s]; the run ends at ``t0 + period``.
+        samples : int, optional
+            A sampled run: states and outputs at ``samples + 1`` equally spaced times from ``t0``
+            to ``t0 + period``. None: the end points and the switches only (an iterate of the
+            map).
+
+        Returns
+        -------
+        Trajectory
+
+        Raises
+        ------
+        hybrid.core.errors.BudgetExceeded
+            The run exhausted its step or time budget.
+        """
         y = np.array(y0, dtype=float)
         for q in self.system.quadratures:
             y[self.names.index(q)] = 0.0

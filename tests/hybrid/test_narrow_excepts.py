@@ -157,12 +157,12 @@ def test_a_defect_in_the_line_search_s_projection_propagates(oscillator, monkeyp
 @pytest.fixture(scope="module")
 def continuer(oscillator):
     system, params, _, y0 = oscillator
-    c = forced._Continuer(
+    c = forced.OrbitContinuer(
         system, params, "Omega", (1.6, 1.8), EXACT, hybrid.ContinuationOptions(samples_per_period=16)
     )
     o = periodic_orbit(system, params, y0, "free", options=EXACT, settings=NO_TRANSIENT)
     assert o.converged, o.message
-    return c, forced._Point(o.x0.copy(), params["Omega"], "free", 0.0, orbit=o)
+    return c, forced.ContinuationPoint(o.x0.copy(), params["Omega"], "free", 0.0, orbit=o)
 
 
 def test_the_tangent_at_a_moved_section_is_a_unit_vector(continuer):
@@ -188,12 +188,12 @@ def test_a_failed_tangent_at_a_moved_section_is_still_none(continuer, monkeypatc
     def tangent(*args, **kwargs):
         raise failure
 
-    monkeypatch.setattr(forced._Continuer, "tangent", tangent)
+    monkeypatch.setattr(forced.OrbitContinuer, "tangent", tangent)
     assert forced._rephase(*continuer, 1.0) is None
 
 
 def test_a_defect_in_the_tangent_at_a_moved_section_propagates(continuer, monkeypatch):
-    monkeypatch.setattr(forced._Continuer, "tangent", _defect)
+    monkeypatch.setattr(forced.OrbitContinuer, "tangent", _defect)
     with pytest.raises(TypeError, match="a defect of the code"):
         forced._rephase(*continuer, 1.0)
 

@@ -36,7 +36,7 @@ def absorber_neighbours():
 def _counting(monkeypatch):
     """Count the runs and monodromies made, per relative tolerance."""
     count: dict[tuple[str, float], int] = {}
-    run, mono = shooting.Shooter._run, shooting.Shooter.monodromy
+    run, mono = shooting.Shooter.run_now, shooting.Shooter.monodromy
 
     def _run(self, *args, **kwargs):
         key = ("run", self.options.method.noise_rtol)
@@ -48,7 +48,7 @@ def _counting(monkeypatch):
         count[key] = count.get(key, 0) + 1
         return mono(self, *args, **kwargs)
 
-    monkeypatch.setattr(shooting.Shooter, "_run", _run)
+    monkeypatch.setattr(shooting.Shooter, "run_now", _run)
     monkeypatch.setattr(shooting.Shooter, "monodromy", _mono)
     return count
 

@@ -105,13 +105,13 @@ def test_absorber_band_orbits_equal_plain_newton_with_fewer_runs(monkeypatch):
     )
     assert start.converged
     runs = {"n": 0}
-    real_run = Shooter._run
+    real_run = Shooter.run_now
 
     def counted(self, *args, **kw):
         runs["n"] += 1
         return real_run(self, *args, **kw)
 
-    monkeypatch.setattr(Shooter, "_run", counted)
+    monkeypatch.setattr(Shooter, "run_now", counted)
 
     def chain():
         out, counts, prev, om_prev = [], [], start, 0.8542

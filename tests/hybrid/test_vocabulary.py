@@ -206,12 +206,12 @@ def test_a_guess_whose_slave_variables_cannot_be_solved_is_an_inconsistent_guess
 
 
 def test_a_run_that_fails_inside_newton_is_run_failed(coulomb_orbit, monkeypatch):
-    run = shooter.Shooter._run
+    run = shooter.Shooter.run_now
 
     def failing(self, *args):
         return replace(run(self, *args), status=Status.ZENO, message="Zeno point (test)")
 
-    monkeypatch.setattr(shooter.Shooter, "_run", failing)
+    monkeypatch.setattr(shooter.Shooter, "run_now", failing)
     o = _from(coulomb_orbit)
     _failed(o, "run-failed")
     assert o.message == "run failed at iteration 0: Zeno point (test)"
@@ -263,12 +263,12 @@ def test_steps_accepted_uphill_are_not_trusted(coulomb_orbit, monkeypatch):
 
 
 def test_an_orbit_ending_in_another_mode_is_a_mode_mismatch(coulomb_orbit, monkeypatch):
-    run = shooter.Shooter._run
+    run = shooter.Shooter.run_now
 
     def elsewhere(self, *args):
         return replace(run(self, *args), mode_final="elsewhere")
 
-    monkeypatch.setattr(shooter.Shooter, "_run", elsewhere)
+    monkeypatch.setattr(shooter.Shooter, "run_now", elsewhere)
     o = _from(coulomb_orbit)
     _failed(o, "mode-mismatch")
     assert o.message.startswith("the mode at t0 + T differs from the section's mode")
