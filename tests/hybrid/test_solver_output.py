@@ -147,6 +147,7 @@ def test_nested_blocks_keep_their_own_words_and_put_the_stream_back(monkeypatch)
     stream = io.StringIO()
     monkeypatch.setattr(sys, "stdout", stream)
     with kept_prints() as outer:
+        assert sys.stdout.getvalue() == ""  # every other attribute is the replaced stream's
         print("outer first")
         with kept_prints() as inner:
             print("[IDASolve, Error: -3] inner")
