@@ -18,6 +18,7 @@ a stream the program puts in ``sys.stdout`` meanwhile is left in place.
 
 from __future__ import annotations
 
+import os
 import re
 import sys
 import threading
@@ -49,7 +50,8 @@ class Kept:
             self.text = re.sub(r"^\[[^\]]*\]\s*", "", s)
 
 
-#: Per thread: the :class:`Kept` of its innermost :func:`kept_prints`, or None outside.
+#: Per thread: ``kept``, the :class:`Kept` of its innermost :func:`kept_prints` (None outside), and
+#: ``inside``, how many of them it is in.
 _LOCAL = threading.local()
 #: Guards the installation of the router and the number of threads inside.
 _LOCK = threading.Lock()
@@ -117,6 +119,20 @@ def _leave() -> None:
             sys.stdout = ROUTER.target
 
 
+def _after_fork_in_child() -> None:
+    """A forked process has only the thread that forked: the others are not inside any more, and
+    the lock may have been held by one of them."""
+    global _LOCK, _depth
+    _LOCK = threading.Lock()
+    _depth = getattr(_LOCAL, "inside", 0)
+    if _depth == 0 and sys.stdout is ROUTER:
+        sys.stdout = ROUTER.target
+
+
+if hasattr(os, "register_at_fork"):  # (not on Windows, which does not fork)
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
 @contextmanager
 def kept_prints() -> Iterator[Kept]:
     """Keep what this thread prints inside the block (see the module's description).
@@ -130,8 +146,10 @@ def kept_prints() -> Iterator[Kept]:
     outer = getattr(_LOCAL, "kept", None)
     _enter()
     try:
+        _LOCAL.inside = getattr(_LOCAL, "inside", 0) + 1
         _LOCAL.kept = kept
         yield kept
     finally:
         _LOCAL.kept = outer
+        _LOCAL.inside -= 1
         _leave()

@@ -10,6 +10,7 @@ afterwards vanishes (exit code 0).
 from __future__ import annotations
 
 import io
+import os
 import subprocess
 import sys
 import textwrap
@@ -188,3 +189,35 @@ def test_printing_while_solver_threads_come_and_go(monkeypatch):
         sys.setswitchinterval(interval)
     assert sys.stdout is stream
     assert stream.getvalue().splitlines() == [f"line {i}" for i in range(2000)]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="no fork on this platform")
+def test_a_process_forked_while_another_thread_is_inside_gets_its_stream_back(monkeypatch):
+    # the child has only the forking thread: the other one's entry must not keep the router in
+    # place there, nor a lock it might have held block the child's own calls
+    stream = io.StringIO()
+    monkeypatch.setattr(sys, "stdout", stream)
+    started, go_on, out = threading.Event(), threading.Event(), {}
+    th = _solver(started, go_on, out, "words")
+    th.start()
+    assert started.wait(10)
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: report, never return into pytest
+        code = 1
+        try:
+            restored = sys.stdout is stream
+            with kept_prints() as kept:
+                print("child words")
+            code = 0 if restored and sys.stdout is stream and kept.text == "child words" else 2
+        finally:
+            os.write(write, bytes([code]))
+            os._exit(0)
+    os.close(write)
+    status = os.read(read, 1)
+    os.close(read)
+    os.waitpid(pid, 0)
+    go_on.set()
+    th.join()
+    assert status == bytes([0])
+    assert sys.stdout is stream
