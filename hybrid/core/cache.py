@@ -4,7 +4,9 @@ A :class:`hybrid.HybridSystem` is frozen: its fields never change after construc
 engine derives from it (its compiled forms, the exact integrator's analysis, compiled gauges) is
 kept in one :class:`DerivedCache` made with the system, under keys owned by the modules that
 derive them, each value made once on first use. Nothing is written into an object's
-``__dict__`` after construction.
+``__dict__`` after construction: what an object makes from its own data on first use is a field
+declared with the object (one value, or an :class:`LRUCache` of a stated size), filled by the
+object's own methods, and module-level caches are :class:`LRUCache` objects of a stated size.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ from typing import Any
 from .errors import InputError
 
 __all__ = ["DerivedCache", "LRUCache"]
+
+_MISSING = object()
 
 
 class DerivedCache:
@@ -51,7 +55,7 @@ class DerivedCache:
 
 
 class LRUCache:
-    """A mapping of at most ``size`` entries; the least recently used goes first.
+    """A mapping of at most ``size`` entries; the least recently used goes first (thread-safe).
 
     Parameters
     ----------
@@ -64,20 +68,34 @@ class LRUCache:
             raise InputError(f"LRUCache: `size` must be >= 1, got {size!r}")
         self.size = size
         self._data: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
 
     def get(self, key: Hashable, default: Any = None) -> Any:
         """The value under ``key`` (now the most recent), or ``default``."""
-        if key not in self._data:
-            return default
-        self._data.move_to_end(key)
-        return self._data[key]
+        with self._lock:
+            if key not in self._data:
+                return default
+            self._data.move_to_end(key)
+            return self._data[key]
 
     def put(self, key: Hashable, value: Any) -> None:
         """Keep ``value`` under ``key`` (the most recent), dropping the least recent beyond ``size``."""
-        self._data[key] = value
-        self._data.move_to_end(key)
-        while len(self._data) > self.size:
-            self._data.popitem(last=False)
+        with self._lock:
+            self._data[key] = value
+            self._data.move_to_end(key)
+            while len(self._data) > self.size:
+                self._data.popitem(last=False)
+
+    def get_or_make(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        """The value under ``key`` (now the most recent), made by ``make()`` and kept if absent.
+
+        ``make`` runs outside the lock (two threads may both make a missing value; the last kept
+        wins, and each gets the one it made or found)."""
+        hit = self.get(key, _MISSING)
+        if hit is _MISSING:
+            hit = make()
+            self.put(key, hit)
+        return hit
 
     def __len__(self) -> int:
         return len(self._data)

@@ -30,10 +30,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.cache import LRUCache
 from ..core.errors import NotAffineError
 from ..model.codegen import compile_many
 from ..model.compiled import CompiledMode, CompiledSystem
@@ -44,6 +45,11 @@ from ..model.expr import mul as e_mul
 from ..model.expr import num as e_num
 from ..model.expr import sub as e_sub
 from .flow import Flow, _cond1, shared_flow
+
+#: Step bounds whose guard Taylor rows an :class:`AffineMode` keeps (:meth:`AffineMode.guard_taylor_rows`).
+GUARD_ROWS_KEPT = 8
+#: Parameter vectors whose matrices an :class:`AffineAnalysis` keeps (:meth:`AffineAnalysis.evaluate`).
+EVALUATED_KEPT = 16
 
 #: Symbols of ``sin(w t)`` and ``cos(w t)`` in the augmented state (not valid model names).
 _S, _C = "__sin_wt", "__cos_wt"
@@ -82,6 +88,12 @@ class AffineMode:
     harmonics : tuple of int
         The multiples ``n`` of ``omega`` in the forcing, one pair ``S_n, C_n`` each in ``z``
         after ``y_d``, in this order (``(1,)``: the one-frequency layout ``[y_d, S, C, 1]``).
+
+    Notes
+    -----
+    What is made from the matrices on first use is kept in fields of its own (not arguments):
+    the :class:`Flow`, ``P M`` and ``P M^2``, and the guards' Taylor rows of
+    :meth:`guard_taylor_rows` (at most :data:`GUARD_ROWS_KEPT` step bounds).
     """
 
     cm: CompiledMode | None
@@ -94,6 +106,12 @@ class AffineMode:
     Q: np.ndarray
     W: np.ndarray
     harmonics: tuple = (1,)
+    _flow: Flow | None = field(default=None, init=False, repr=False, compare=False)
+    _PM: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    _PMM: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    _guard_rows: LRUCache = field(
+        default_factory=lambda: LRUCache(GUARD_ROWS_KEPT), init=False, repr=False, compare=False
+    )
 
     @property
     def nz(self) -> int:
@@ -102,10 +120,36 @@ class AffineMode:
     def flow(self) -> Flow:
         """The mode's :class:`Flow` (built on first use; shared by every mode with the same matrices,
         e.g. a run's and its monodromy's at one parameter value)."""
-        f = self.__dict__.get("_flow")
-        if f is None:
-            f = self.__dict__["_flow"] = shared_flow(self.M, self.Q)
-        return f
+        if self._flow is None:
+            self._flow = shared_flow(self.M, self.Q)
+        return self._flow
+
+    def guard_taylor_rows(self, max_step: float, degree: int) -> tuple[float, np.ndarray]:
+        """Step length ``h`` and Taylor rows ``T[g, j] = W_g M^j / j!``, ``j <= degree``, of the guards
+        (made once per ``(max_step, degree)``).
+
+        ``h`` is ``max_step`` [s] halved until the guards' Taylor terms of degrees ``degree + 1`` to
+        ``degree + 8`` are below ``1e-17`` of the first ones on a step of length ``h``.
+        """
+        return self._guard_rows.get_or_make((max_step, degree), lambda: self._taylor_rows(max_step, degree))
+
+    def _taylor_rows(self, max_step: float, K: int) -> tuple[float, np.ndarray]:
+        ng, nz = self.W.shape
+        extra = 8
+        T = np.zeros((ng, K + 1 + extra, nz))
+        row = self.W.copy()
+        for j in range(K + 1 + extra):
+            T[:, j, :] = row
+            row = row @ self.M / (j + 1)
+        # Step length: the guards' Taylor tails beyond the degree are below rounding on a step.
+        norms = np.max(np.abs(T).sum(axis=2), axis=0) if ng else np.zeros(K + 1 + extra)
+        h = max_step
+        while ng and h > 0:
+            powers = h ** np.arange(K + 1 + extra)
+            if np.sum(norms[K + 1 :] * powers[K + 1 :]) <= 1e-17 * np.sum(norms[: K + 1] * powers[: K + 1]):
+                break
+            h *= 0.5
+        return h, np.ascontiguousarray(T[:, : K + 1, :])
 
     def augment(self, t: float, y: np.ndarray) -> np.ndarray:
         """``z`` at ``(t, y)`` (the slave variables of ``y`` are not read)."""
@@ -159,20 +203,18 @@ class AffineMode:
 
     def derivatives(self, z: np.ndarray) -> np.ndarray:
         """Consistent ``y'`` at ``z`` (slave rows ``P_a M z``, quadrature rows ``z^T Q_j z``)."""
-        PM = self.__dict__.get("_PM")
-        if PM is None:
-            PM = self.__dict__["_PM"] = self.P @ self.M
-        yp = PM @ z
+        if self._PM is None:
+            self._PM = self.P @ self.M
+        yp = self._PM @ z
         if self.q.size:
             yp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, z)
         return yp
 
     def second_derivatives(self, z: np.ndarray) -> np.ndarray:
         """``y''`` at ``z``, exactly: ``P M^2 z``; quadrature rows ``z^T Q_j M z + (M z)^T Q_j z``."""
-        PMM = self.__dict__.get("_PMM")
-        if PMM is None:
-            PMM = self.__dict__["_PMM"] = self.P @ self.M @ self.M
-        ypp = PMM @ z
+        if self._PMM is None:
+            self._PMM = self.P @ self.M @ self.M
+        ypp = self._PMM @ z
         if self.q.size:
             mz = self.M @ z
             ypp[self.q] = np.einsum("j,qjk,k->q", z, self.Q, mz) + np.einsum("j,qjk,k->q", mz, self.Q, z)
@@ -360,6 +402,8 @@ class AffineAnalysis:
             compile_many([self._values[i] for i in self._dyn], slots, "affine") if self._dyn.size else None
         )
         self._rate_fn = compile_many(self._rates, slots, "rates") if self._rates else None
+        #: :meth:`evaluate` at the most recent parameter vectors (at most EVALUATED_KEPT)
+        self._evaluated = LRUCache(EVALUATED_KEPT)
 
     def _pos(self, e: Expr) -> int:
         k = self._where.get(e)
@@ -430,19 +474,15 @@ class AffineAnalysis:
             lowest, or slave variables not determined by the algebraic equations, at these values.
         """
         v = [float(x) for x in values]
-        key = tuple(v)
-        cache = self.__dict__.setdefault("_evaluated", {})
-        hit = cache.pop(key, None)
-        if hit is None:
-            hit = self._evaluate(v)
-            for form in hit:
-                for x in form:
-                    if isinstance(x, np.ndarray):
-                        x.flags.writeable = False  # shared by every flow at these values
-            if len(cache) >= 16:
-                del cache[next(iter(cache))]
-        cache[key] = hit  # most recent last
-        return hit
+        return self._evaluated.get_or_make(tuple(v), lambda: self._frozen(v))
+
+    def _frozen(self, v: list[float]) -> list[tuple]:
+        out = self._evaluate(v)
+        for form in out:
+            for x in form:
+                if isinstance(x, np.ndarray):
+                    x.flags.writeable = False  # shared by every flow at these values
+        return out
 
     def _evaluate(self, v: list[float]) -> list[tuple]:
         vals, omegas, harmonics, pairs = self.coefficients(v)

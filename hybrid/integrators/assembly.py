@@ -16,6 +16,8 @@ base frequency, as :meth:`AffineAnalysis.coefficients` gives them for its forced
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -253,17 +255,19 @@ class _SparsePart:
         self.Q = [_triplets(Qj) for Qj in form.Qu]
 
 
+@dataclass
 class SparseAffineMode(AffineMode):
     """An :class:`AffineMode` whose matrices are sparse (``scipy.sparse.csr_array``; ``Q`` a list
     of them): the mode of a large system with components. ``flow()`` and :meth:`dense` give the
-    dense form where an eigen-decomposition is wanted (a monodromy matrix)."""
+    dense form where an eigen-decomposition is wanted (a monodromy matrix; kept in ``_dense``)."""
+
+    _dense: AffineMode | None = field(default=None, init=False, repr=False, compare=False)
 
     def dense(self) -> AffineMode:
         """The same mode with dense matrices (made once)."""
-        hit = self.__dict__.get("_dense")
-        if hit is None:
+        if self._dense is None:
             Q = np.array([Qj.toarray() for Qj in self.Q]).reshape(len(self.Q), self.nz, self.nz)
-            hit = self.__dict__["_dense"] = AffineMode(
+            self._dense = AffineMode(
                 self.cm,
                 self.omega,
                 self.d,
@@ -275,7 +279,7 @@ class SparseAffineMode(AffineMode):
                 self.W.toarray(),
                 self.harmonics,
             )
-        return hit
+        return self._dense
 
     def flow(self):
         return self.dense().flow()

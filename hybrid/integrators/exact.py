@@ -87,31 +87,6 @@ _MON2CHEB = np.array(
 ).T
 
 
-def _guard_series_rows(am: AffineMode, max_step: float) -> tuple[float, np.ndarray]:
-    """Step length and Taylor rows ``T[g, j] = W_g M^j / j!`` of the guards (kept with the mode)."""
-    cache = am.__dict__.setdefault("_series", {})
-    hit = cache.get(max_step)
-    if hit is not None:
-        return hit
-    ng, nz = am.W.shape
-    K, extra = TAYLOR_DEGREE, 8
-    T = np.zeros((ng, K + 1 + extra, nz))
-    row = am.W.copy()
-    for j in range(K + 1 + extra):
-        T[:, j, :] = row
-        row = row @ am.M / (j + 1)
-    # Step length: the guards' Taylor tails beyond the degree are below rounding on a step.
-    norms = np.max(np.abs(T).sum(axis=2), axis=0) if ng else np.zeros(K + 1 + extra)
-    h = max_step
-    while ng and h > 0:
-        powers = h ** np.arange(K + 1 + extra)
-        if np.sum(norms[K + 1 :] * powers[K + 1 :]) <= 1e-17 * np.sum(norms[: K + 1] * powers[: K + 1]):
-            break
-        h *= 0.5
-    cache[max_step] = hit = (h, np.ascontiguousarray(T[:, : K + 1, :]))
-    return hit
-
-
 class ExactModeSolver:
     """The exact flow of one affine mode, behind the interface of :class:`hybrid.integrators.ida.ModeSolver`.
 
@@ -132,7 +107,7 @@ class ExactModeSolver:
         self.nfev_last = 0
         self.njev_last = 0
         nz = am.nz
-        self.h, T = _guard_series_rows(am, float(max_step))
+        self.h, T = am.guard_taylor_rows(float(max_step), TAYLOR_DEGREE)
         self._T = T
         self.flow = am.flow()
         self._direction = [int(d) for d in am.cm.guard_directions]

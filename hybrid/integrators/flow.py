@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from ..core.balance import balance
+from ..core.cache import LRUCache
 
 __all__ = ["Flow", "matrix_exp", "shared_flow"]
 
@@ -73,20 +74,17 @@ def matrix_exp(A: np.ndarray) -> np.ndarray:
 MAX_SHARED_FLOWS = 64
 
 
-_FLOWS: dict[bytes, Flow] = {}
+#: Step lengths whose kernels a :class:`Flow` keeps (:meth:`Flow.kernel`).
+KERNELS_KEPT = 16
+
+_FLOWS = LRUCache(MAX_SHARED_FLOWS)
 
 
 def shared_flow(M: np.ndarray, Q: np.ndarray) -> Flow:
     """The :class:`Flow` of ``(M, Q)``, built once for equal matrices (its eigen-decomposition, guard
     series and step kernels are then computed once for a parameter value, not once per run)."""
     key = M.tobytes() + b"|" + Q.tobytes() + repr((M.shape, Q.shape)).encode()
-    f = _FLOWS.pop(key, None)
-    if f is None:
-        f = Flow(M, Q)
-        if len(_FLOWS) >= MAX_SHARED_FLOWS:
-            del _FLOWS[next(iter(_FLOWS))]
-    _FLOWS[key] = f  # most recent last
-    return f
+    return _FLOWS.get_or_make(key, lambda: Flow(M, Q))
 
 
 class Flow:
@@ -108,6 +106,7 @@ class Flow:
     def __init__(self, M: np.ndarray, Q: np.ndarray):
         self.M, self.Q = M, Q
         self.nz = M.shape[0]
+        self._kernels = LRUCache(KERNELS_KEPT)  # kernel(h) at the most recent steps h
         self.eigen = False
         try:
             # eigenvectors of the balanced generator (a diagonal similarity by powers of 2): in
@@ -129,30 +128,27 @@ class Flow:
 
     def kernel(self, h: float) -> tuple[np.ndarray, np.ndarray | None]:
         """``(expm(M h), K)`` with ``q(h) - q(0) = z^T K_j z`` (None without quadratures), kept for reuse."""
-        cache = self.__dict__.setdefault("_kernels", {})
-        hit = cache.get(h)
-        if hit is None:
-            if len(cache) >= 16:
-                cache.clear()
-            nq, nz = self.Q.shape[0], self.nz
-            E = self.matrix(h)
-            K = None
-            if nq and self.eigen:
-                mh = self.mu * h
-                small = np.abs(mh) < 1e-3
-                phi = np.where(small, h * (1 + mh / 2 + mh * mh / 6 + mh**3 / 24), 0j)
-                phi[~small] = (np.exp(mh[~small]) - 1.0) / self.mu[~small]
-                K = np.real(np.einsum("ji,qjk,kl->qil", self.Vinv, self.QV * phi, self.Vinv))
-            elif nq:
-                K = np.zeros((nq, nz, nz))
-                for j, Qj in enumerate(self.Q):
-                    B = np.zeros((2 * nz, 2 * nz))
-                    B[:nz, :nz] = -self.M.T
-                    B[:nz, nz:] = Qj
-                    B[nz:, nz:] = self.M
-                    K[j] = E.T @ matrix_exp(B * h)[:nz, nz:]
-            cache[h] = hit = (E, K)
-        return hit
+        return self._kernels.get_or_make(h, lambda: self._kernel(h))
+
+    def _kernel(self, h: float) -> tuple[np.ndarray, np.ndarray | None]:
+        nq, nz = self.Q.shape[0], self.nz
+        E = self.matrix(h)
+        K = None
+        if nq and self.eigen:
+            mh = self.mu * h
+            small = np.abs(mh) < 1e-3
+            phi = np.where(small, h * (1 + mh / 2 + mh * mh / 6 + mh**3 / 24), 0j)
+            phi[~small] = (np.exp(mh[~small]) - 1.0) / self.mu[~small]
+            K = np.real(np.einsum("ji,qjk,kl->qil", self.Vinv, self.QV * phi, self.Vinv))
+        elif nq:
+            K = np.zeros((nq, nz, nz))
+            for j, Qj in enumerate(self.Q):
+                B = np.zeros((2 * nz, 2 * nz))
+                B[:nz, :nz] = -self.M.T
+                B[:nz, nz:] = Qj
+                B[nz:, nz:] = self.M
+                K[j] = E.T @ matrix_exp(B * h)[:nz, nz:]
+        return E, K
 
     def matrix(self, h: float) -> np.ndarray:
         """``expm(M h)``."""

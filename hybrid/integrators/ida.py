@@ -9,8 +9,6 @@ stay here.
 
 from __future__ import annotations
 
-import re
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -23,6 +21,7 @@ from ..core.options import check_positive
 from ..model.compiled import CompiledMode, CompiledSystem
 from ..model.linear import fast_dynamics
 from .base import ROOT, SUCCESS, TSTOP, Method, StepResult
+from .solver_output import kept_prints
 
 if TYPE_CHECKING:
     from .options import SolverOptions
@@ -78,38 +77,18 @@ def explain(status: int, message: str) -> str:
     )
 
 
-class _Notes:
-    """Takes what scikit-sundae prints during a call into IDA (SUNDIALS' error messages go to
-    ``print``, i.e. to stdout, where they would mix with a command's output); keeps the last."""
-
-    text = ""
-
-    def write(self, s: str) -> int:
-        s = s.strip()
-        if s:
-            self.text = re.sub(r"^\[[^\]]*\]\s*", "", s)  # drop "[IDASolve, Error: -3]"
-        return len(s)
-
-    def flush(self) -> None:
-        pass
-
-
-_NOTES = _Notes()
-
-
 def _call(ida, t: float, method: str, tstop: float | None):
-    """``ida.step`` with SUNDIALS' printed messages kept (``_NOTES.text``), and a flag unknown to
-    scikit-sundae (a ``KeyError`` there) returned as a failure ``(flag, message)``."""
-    _NOTES.text = ""
-    saved, sys.stdout = sys.stdout, _NOTES
-    try:
-        return ida.step(t, method, tstop=tstop), None
-    except KeyError as exc:
-        flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
-        detail = f": {_NOTES.text}" if _NOTES.text else ""
-        return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae{detail}")
-    finally:
-        sys.stdout = saved
+    """``ida.step`` as ``(result, failure, words)``: SUNDIALS' message of this call (``words``,
+    ``""`` if none: scikit-sundae prints it, :func:`~hybrid.integrators.solver_output.kept_prints`
+    keeps it off stdout), and a flag unknown to scikit-sundae (a ``KeyError`` there) returned as
+    ``failure = (flag, message)`` with ``result`` None."""
+    with kept_prints() as kept:
+        try:
+            return ida.step(t, method, tstop=tstop), None, kept.text
+        except KeyError as exc:
+            flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
+            detail = f": {kept.text}" if kept.text else ""
+            return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae{detail}"), kept.text
 
 
 class ModeSolver:
@@ -227,7 +206,7 @@ class ModeSolver:
         """Advance towards ``tout`` (one internal step if ``one_step``), never past ``tstop``."""
         if self._events is not None:
             self._all_armed[0] = bool(self.armed.all())  # the caller (dis)arms between calls only
-        r, bad = _call(self._ida, float(tout), "onestep" if one_step else "normal", float(tstop))
+        r, bad, words = _call(self._ida, float(tout), "onestep" if one_step else "normal", float(tstop))
         if bad is not None:
             self._clear_events()
             return StepResult(bad[0], self._t, self._y, self._yp, (), bad[1])
@@ -236,7 +215,7 @@ class ModeSolver:
             fired = tuple(int(k) for k in np.flatnonzero(r.i_events[-1]))
         self._clear_events()
         self.nfev_last, self.njev_last = int(r.nfev), int(r.njev)
-        msg = str(r.message) + (f" {_NOTES.text}" if r.status < 0 and _NOTES.text else "")
+        msg = str(r.message) + (f" {words}" if r.status < 0 and words else "")
         # r.y, r.yp are scikit-sundae's copies, owned by this result alone
         res = StepResult(int(r.status), float(r.t), np.asarray(r.y), np.asarray(r.yp), fired, msg)
         if res.status >= 0:
@@ -247,7 +226,7 @@ class ModeSolver:
         """State at ``t`` inside the last internal step (no advance)."""
         if self._events is not None:
             self._all_armed[0] = bool(self.armed.all())
-        r, bad = _call(self._ida, float(t), "normal", None)
+        r, bad, _ = _call(self._ida, float(t), "normal", None)
         self._clear_events()
         if bad is not None or r.status < 0:
             raise IntegratorError(f"IDA could not interpolate at t={t!r}: {bad[1] if bad else r.message}")
@@ -416,7 +395,7 @@ class SensitivitySolver:
         t = float(t0)
         where = f" in the variational equations of mode `{mode.name}`"
         while True:
-            r, bad = _call(self._ida, float(t1), "normal", float(t1))
+            r, bad, words = _call(self._ida, float(t1), "normal", float(t1))
             if bad is not None:
                 raise IntegratorError(f"IDA failed{where} near t={t!r}: {explain(*bad)}")
             nfev = int(r.nfev)  # since init_step: the increment of this call is charged
@@ -433,7 +412,7 @@ class SensitivitySolver:
                 if r.status == -1 and float(r.t) > t:  # max_num_steps reached: go on, within the budget
                     t = float(r.t)
                     continue
-                msg = str(r.message) + (f" {_NOTES.text}" if _NOTES.text else "")
+                msg = str(r.message) + (f" {words}" if words else "")
                 raise IntegratorError(f"IDA failed{where} at t={r.t!r}: {explain(int(r.status), msg)}")
             z = np.array(r.y)
             if float(r.t) >= t1 or r.status in (SUCCESS, TSTOP):

@@ -379,6 +379,8 @@ class ComposedMode(ModeMethods):
         self.halt = "; ".join(h for h in halts if h)
         self._lu = None  # the slave block's LU factorisation, where it is constant
         self._lu_generation = -1
+        self._exprs: tuple[dict, dict] | None = None  # (f_expr, g_expr), made by _rows on first use
+        self._slave_pattern: tuple | None = None  # made by _pattern on first use
 
     def guard_slot(self, name: str) -> int | None:
         """The index of the guard of the transition called ``name`` (None: the mode has none)."""
@@ -386,15 +388,14 @@ class ComposedMode(ModeMethods):
 
     # -- made on first use --------------------------------------------------------------------
     def _rows(self) -> tuple[dict, dict]:
-        hit = self.__dict__.get("_exprs")
-        if hit is None:
+        if self._exprs is None:
             f_expr, g_expr = {}, {}
             for i in range(self.n):
                 local = 0 if i >= self.n - self._nfree else self.key[self.form.owner[i]]
                 d, e = self.form.alt[i][local]
                 (f_expr if d else g_expr)[i] = e
-            hit = self.__dict__["_exprs"] = (f_expr, g_expr)
-        return hit
+            self._exprs = (f_expr, g_expr)
+        return self._exprs
 
     @property
     def f_expr(self) -> dict:
@@ -435,8 +436,7 @@ class ComposedMode(ModeMethods):
         """Where the entries of ``dF/dy`` fall in the slave rows: ``(entries, rows, columns)`` of
         the block in the differential variables, then of the block in the slave variables (rows
         and columns numbered within the blocks)."""
-        hit = self.__dict__.get("_pattern_")
-        if hit is None:
+        if self._slave_pattern is None:
             i, j = self.jacobian_entries
             pa = np.full(self.n, -1)
             pa[self.alg_idx] = np.arange(self.alg_idx.size)
@@ -444,8 +444,8 @@ class ComposedMode(ModeMethods):
             pd[self.diff_idx] = np.arange(self.diff_idx.size)
             ad = np.flatnonzero((pa[i] >= 0) & (pd[j] >= 0))
             aa = np.flatnonzero((pa[i] >= 0) & (pa[j] >= 0))
-            hit = self.__dict__["_pattern_"] = (ad, pa[i[ad]], pd[j[ad]], aa, pa[i[aa]], pa[j[aa]])
-        return hit
+            self._slave_pattern = (ad, pa[i[ad]], pd[j[ad]], aa, pa[i[aa]], pa[j[aa]])
+        return self._slave_pattern
 
     def _slave_d(self, vals: np.ndarray):
         """``dg/dy_d``, the slave rows' block in the differential variables (dense when small)."""

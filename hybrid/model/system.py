@@ -26,12 +26,14 @@ Semantics
 
 from __future__ import annotations
 
+import itertools
 import math
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from ..core.cache import DerivedCache
+from ..core.cache import DerivedCache, LRUCache
 from ..core.errors import ExpressionError, InputError, InputTypeError, ModelError
 from .codegen import compile_scalar
 from .elements import (
@@ -79,23 +81,39 @@ _PLOT_KEYS = {"force", "velocity", "displacements", "shade_modes", "units", "lin
 _DOMAINS = ("real", "positive", "nonnegative")
 
 
-#: Systems shared by reference with worker processes forked from this one (see :func:`shared`).
-_SHARED: dict[int, HybridSystem] = {}
+#: Systems :func:`shared` keeps at once (the most recently shared; an older one is dropped).
+MAX_SHARED_SYSTEMS = 32
+
+#: The systems that pickle by reference (see :func:`shared`): ``id(system) -> (serial, system)``,
+#: bounded. The serial tells a system from a later one at the same address after the first was
+#: dropped and freed: a reference to the first then fails instead of naming the second.
+_SHARED = LRUCache(MAX_SHARED_SYSTEMS)
+_SERIALS = itertools.count(1)
+_SHARING = threading.Lock()  # a system shared by two threads at once gets one serial
 
 
 def shared(system: HybridSystem) -> None:
-    """Let ``system`` be pickled by reference until the process exits: a process forked after this
-    call (e.g. a worker of :func:`hybrid.frequency_response`) sends results that refer to it, and
-    they unpickle here as the same object. (A system holds compiled code and is not pickled by
-    value.)"""
-    _SHARED[id(system)] = system
+    """Let ``system`` be pickled by reference: a process forked after this call (e.g. a worker of
+    :func:`hybrid.frequency_response`) sends results that refer to it, and they unpickle here as
+    the same object. (A system holds compiled code and is not pickled by value.)
+
+    The :data:`MAX_SHARED_SYSTEMS` most recently shared systems are kept (sharing one again makes
+    it the most recent); a reference to a system dropped since fails to unpickle, naming the limit.
+    """
+    with _SHARING:
+        hit = _SHARED.get(id(system))  # (a system kept is alive: no other object has its id)
+        if hit is None:
+            _SHARED.put(id(system), (next(_SERIALS), system))
 
 
-def _shared_system(key: int) -> HybridSystem:
-    try:
-        return _SHARED[key]
-    except KeyError:
-        raise InputTypeError("a HybridSystem is unpickled only in the process it was shared from") from None
+def _shared_system(key: int, serial: int) -> HybridSystem:
+    hit = _SHARED.get(key)
+    if hit is None or hit[0] != serial:
+        raise InputTypeError(
+            "a HybridSystem is unpickled only in the process it was shared from, while it is among the "
+            f"{MAX_SHARED_SYSTEMS} systems shared last there (hybrid.model.system.shared)"
+        )
+    return hit[1]
 
 
 @dataclass(frozen=True)
@@ -1001,12 +1019,13 @@ class HybridSystem:
         return {p.name: p.check(out[p.name]) for p in self.parameters}
 
     def __reduce__(self):
-        if _SHARED.get(id(self)) is not self:
+        hit = _SHARED.get(id(self))
+        if hit is None or hit[1] is not self:
             raise InputTypeError(
                 f"model `{self.name}`: a HybridSystem is not pickled by value (it holds compiled code); "
                 "it is pickled by reference only between processes forked after hybrid.model.system.shared(system)"
             )
-        return (_shared_system, (id(self),))
+        return (_shared_system, (id(self), hit[0]))
 
     def preset(self, name: str, **overrides: float) -> dict[str, float]:
         """Parameter values of preset ``name`` with ``overrides`` applied (checked)."""

@@ -304,7 +304,7 @@ def test_an_ida_flag_unknown_to_scikit_sundae_is_a_failure_status(monkeypatch):
     import hybrid.integrators.ida as dae
 
     def unknown(ida, t, method, tstop):
-        return None, (-60, "IDA returned flag -60, unknown to scikit-sundae: tout too close to t0")
+        return None, (-60, "IDA returned flag -60, unknown to scikit-sundae: tout too close to t0"), ""
 
     monkeypatch.setattr(dae, "_call", unknown)
     system, p = coulomb_forced()
@@ -322,8 +322,9 @@ def test_call_turns_a_keyerror_of_scikit_sundae_into_a_flag():
             print("[IDASolve, Error: -60] tout too close to t0 to start integration.")
             raise KeyError(-60)
 
-    r, bad = _call(Raises(), 1.0, "normal", None)
+    r, bad, words = _call(Raises(), 1.0, "normal", None)
     assert r is None
+    assert words == "tout too close to t0 to start integration."
     assert bad[0] == -60
     assert "unknown to scikit-sundae: tout too close to t0" in bad[1]
 

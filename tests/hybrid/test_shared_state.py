@@ -100,3 +100,30 @@ def test_a_system_is_hashable_and_frozen(absorber):
     Shooter(absorber, absorber.preset("standard"), SolverOptions(method=Exact()))
     Shooter(absorber, absorber.preset("standard"), ORBIT_OPTIONS).run(np.zeros(7), "stick", 0.0)
     assert set(vars(absorber)) == before  # nothing written into the system after construction
+
+
+def test_shared_systems_are_a_bounded_cache_and_a_dropped_one_fails_to_unpickle(absorber):
+    # issue 29, item 4: every system ever shared was kept until the process exited
+    import pickle
+
+    from hybrid.core.errors import InputTypeError
+    from hybrid.model import system as system_mod
+
+    systems = [dataclasses.replace(absorber) for _ in range(system_mod.MAX_SHARED_SYSTEMS + 5)]
+    system_mod.shared(systems[0])
+    first = pickle.dumps(systems[0])
+    assert pickle.loads(first) is systems[0]  # by reference, the same object
+    for s in systems[1:]:
+        system_mod.shared(s)
+    assert len(system_mod._SHARED) == system_mod.MAX_SHARED_SYSTEMS
+    last = systems[-1]
+    assert pickle.loads(pickle.dumps(last)) is last
+    system_mod.shared(last)  # shared again: the same reference still holds
+    assert pickle.loads(pickle.dumps(last)) is last
+    limit = f"among the {system_mod.MAX_SHARED_SYSTEMS} systems shared last"
+    with pytest.raises(InputTypeError, match=limit):
+        pickle.loads(first)  # dropped since: refused, not another system
+    with pytest.raises(InputTypeError, match=limit):  # a later system at a freed one's address
+        system_mod._shared_system(id(last), -1)
+    with pytest.raises(InputTypeError, match=r"not pickled by value"):
+        pickle.dumps(systems[0])
