@@ -12,6 +12,7 @@ drawn under the branches.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -366,135 +367,212 @@ def plot_frc(
     -------
     Path
     """
-    import textwrap
-
     system = fr.system
     overlays = overlays or {}
     references = references or {}
     coords = coordinates or list(plot_hints(system)["displacements"])
-    par = fr.parameter
-    par_unit = unit_of(system, par)
     zooms = zoom_windows(fr)
-    letters = [chr(ord("A") + k) for k in range(len(zooms))]
-    ncol = 1 + len(zooms)
-    width = max(4.2 * ncol + 1.0, 10.0)
-    # the figure's title: the model, then the other parameters with their units, wrapped
-    params = ", ".join(f"{k} = {with_unit(v, unit_of(system, k))}" for k, v in fr.params.items() if k != par)
-    head = [f"{system.title or system.name}: frequency response (max |x| over a period)"]
-    head += textwrap.wrap(params, width=int(width * 13))
-    top_in = 0.3 + 0.2 * len(head) + 0.35  # the title's lines, then the first panel's title
-    n_legend = 4 + len(references) + len(overlays) + len({sp.kind for b in fr.branches for sp in b.special})
-    n_legend += 1 + bool(zooms) + bool(fr.gaps)
-    bottom_in = 0.75 + 0.19 * -(-n_legend // 3)  # the x label, then the legend's rows
-    height = 3.4 * len(coords) + top_in + bottom_in
-    # A fixed layout (margins in inches): matplotlib's constrained layout measures every tick label
-    # once more and took 0.9 of the 1.7 s of this figure.
-    fig = _new_figure((width, height), layout=None)
-    gs = fig.add_gridspec(
-        len(coords),
-        ncol,
-        width_ratios=[1.3] + [1.0] * len(zooms),
-        left=0.85 / width,
-        right=1.0 - 0.25 / width,
-        top=1.0 - top_in / height,
-        bottom=bottom_in / height,
-        wspace=0.28,
-        hspace=0.45,
-    )
+    lay = _Layout.of(fr, coords, zooms, references, overlays)
+    fig, gs = lay.figure()
     renderer = fig.canvas.get_renderer()
-    lo, hi = fr.p_range
-    xlab = f"{par} [{par_unit}]" if par_unit else par
+    curves = (grid, references, overlays)
     dropped = 0
     for r, name in enumerate(coords):
-        unit = unit_of(system, name)
-        ylab = f"max |{name}|" + (f" [{unit}]" if unit else "")
         ax = fig.add_subplot(gs[r, 0])
-        amps = _draw_branches(ax, fr, name, (lo, hi))
-        if grid is not None:
-            _draw_overlays(ax, references, grid, name, REFERENCE_STYLE)
-            _draw_overlays(ax, overlays, grid, name, OVERLAY_STYLE)
-        items = _special_points(fr, name, (lo, hi))
-        _draw_special(ax, items)
-        for a, b in fr.gaps:
-            ax.axvspan(a, b, color="C3", alpha=0.15, lw=0, zorder=0)
-        pos = [a for a in amps if a > 0]
-        log = bool(pos) and max(pos) > 10.0 * min(
-            pos
-        )  # one scale for the row: log where amplitudes span decades
-        if log:
-            ax.set_yscale("log")
-            ax.set_ylim(min(pos) / 3.0, max(pos) * 5.0)
-        elif amps:
-            ax.set_ylim(0.0, 1.2 * max(amps) if max(amps) > 0 else 1.0)
-        ax.set_xlim(lo, hi)
-        for (a, b, _), letter in zip(zooms, letters, strict=True):
-            ax.axvspan(a, b, color=ZOOM_COLOUR, alpha=0.18, lw=0.8, ec=ZOOM_COLOUR, zorder=0)
-            ax.annotate(
-                letter,
-                (0.5 * (a + b), 1.0),
-                xycoords=("data", "axes fraction"),
-                xytext=(0, -2),
-                textcoords="offset points",
-                ha="center",
-                va="top",
-                fontsize=8,
-                color=ZOOM_COLOUR,
-                fontweight="bold",
-                bbox=dict(boxstyle="round,pad=0.1", fc="w", ec="none", alpha=0.85),
-                zorder=7,
-            )
-        ax.xaxis.set_major_locator(MaxNLocator(6))
-        ax.ticklabel_format(axis="x", useOffset=False)
-        ax.set_ylabel(ylab)
-        ax.set_title(
-            f"{name}, {par} {lo:.6g} to {hi:.6g}"
-            + (f" {par_unit}" if par_unit else "")
-            + (f" (zoomed: {', '.join(letters)})" if zooms else ""),
-            fontsize=9,
-            y=1.0,
-        )
-        ax.grid(alpha=0.3, which="both")
-        dropped += _label_special(ax, items, renderer, par_unit) if not zooms else 0
-        for c, ((a, b, w), letter) in enumerate(zip(zooms, letters, strict=True), start=1):
+        log, n = _full_panel(ax, fr, name, lay, curves, renderer)
+        dropped += n
+        for c, (window, letter) in enumerate(zip(zooms, lay.letters, strict=True), start=1):
             az = fig.add_subplot(gs[r, c])
-            inside = _draw_branches(az, fr, name, (a, b))
-            if grid is not None:
-                _draw_overlays(az, references, grid, name, REFERENCE_STYLE)
-                _draw_overlays(az, overlays, grid, name, OVERLAY_STYLE)
-            zitems = _special_points(fr, name, (a, b))
-            _draw_special(az, zitems)
-            for ga, gb in fr.gaps:
-                az.axvspan(ga, gb, color="C3", alpha=0.15, lw=0, zorder=0)
-            az.set_xlim(a, b)
-            zpos = [v for v in inside if v > 0]
-            if log:
-                az.set_yscale("log")
-                if zpos:
-                    az.set_ylim(min(zpos) / 1.5, max(zpos) * 1.5)
-                if zpos and max(zpos) < 30 * min(zpos):  # under a decade or so: plain numbers
-                    az.yaxis.set_major_formatter(PLAIN)
-                    az.yaxis.set_minor_formatter(PLAIN)
-            elif inside:
-                az.set_ylim(0.0, 1.2 * max(inside) if max(inside) > 0 else 1.0)
-            kinds = sorted({it["kind"] for it in zitems})
-            what = ", ".join(SHORT.get(k, k) for k in kinds)
-            if w is not None:
-                az.axvline(w, color="0.5", lw=0.6, ls=":")
-                what = (what + "; " if what else "") + f"natural frequency {w:.5g} (dotted)"
-            az.set_title(
-                f"{letter}: {name}, {par} {a:.6g} to {b:.6g}"
-                + (f" {par_unit}" if par_unit else "")
-                + (f"\n{what}" if what else ""),
-                fontsize=8.5,
-                y=1.0,
-            )
-            az.xaxis.set_major_locator(MaxNLocator(5))
-            az.ticklabel_format(axis="x", useOffset=False)
-            az.grid(alpha=0.3, which="both")
-            dropped += _label_special(az, zitems, renderer, par_unit)
-    for ax in fig.axes[-ncol:]:
-        ax.set_xlabel(xlab)
+            dropped += _zoom_panel(az, fr, name, lay, curves, window, letter, log, renderer)
+    for ax in fig.axes[-lay.ncol :]:
+        ax.set_xlabel(lay.xlab)
+    handles = _legend_handles(fr, references, overlays, lay, dropped)
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 3), fontsize=8, frameon=False)
+    fig.suptitle("\n".join(lay.head), fontsize=10, y=1.0 - 0.25 / lay.height, va="top")
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    return path
 
+
+@dataclass(frozen=True)
+class _Layout:
+    """The frequency-response figure's geometry and the texts it shares across panels."""
+
+    par: str
+    par_unit: str
+    p_range: tuple[float, float]
+    zooms: list
+    letters: list[str]
+    ncol: int
+    n_rows: int
+    width: float
+    height: float
+    top_in: float
+    bottom_in: float
+    head: list[str]
+    xlab: str
+
+    @classmethod
+    def of(cls, fr: FrequencyResponse, coords: list[str], zooms: list, references: dict, overlays: dict):
+        """The layout of ``fr``'s figure with rows ``coords`` and zoom windows ``zooms``."""
+        import textwrap
+
+        system = fr.system
+        par = fr.parameter
+        par_unit = unit_of(system, par)
+        letters = [chr(ord("A") + k) for k in range(len(zooms))]
+        ncol = 1 + len(zooms)
+        width = max(4.2 * ncol + 1.0, 10.0)
+        # the figure's title: the model, then the other parameters with their units, wrapped
+        params = ", ".join(
+            f"{k} = {with_unit(v, unit_of(system, k))}" for k, v in fr.params.items() if k != par
+        )
+        head = [f"{system.title or system.name}: frequency response (max |x| over a period)"]
+        head += textwrap.wrap(params, width=int(width * 13))
+        top_in = 0.3 + 0.2 * len(head) + 0.35  # the title's lines, then the first panel's title
+        n_legend = (
+            4 + len(references) + len(overlays) + len({sp.kind for b in fr.branches for sp in b.special})
+        )
+        n_legend += 1 + bool(zooms) + bool(fr.gaps)
+        bottom_in = 0.75 + 0.19 * -(-n_legend // 3)  # the x label, then the legend's rows
+        height = 3.4 * len(coords) + top_in + bottom_in
+        xlab = f"{par} [{par_unit}]" if par_unit else par
+        return cls(
+            par,
+            par_unit,
+            fr.p_range,
+            zooms,
+            letters,
+            ncol,
+            len(coords),
+            width,
+            height,
+            top_in,
+            bottom_in,
+            head,
+            xlab,
+        )
+
+    def figure(self):
+        """The figure and its grid of panels. A fixed layout (margins in inches): matplotlib's
+        constrained layout measures every tick label once more and took 0.9 of the 1.7 s of this
+        figure."""
+        fig = _new_figure((self.width, self.height), layout=None)
+        gs = fig.add_gridspec(
+            self.n_rows,
+            self.ncol,
+            width_ratios=[1.3] + [1.0] * len(self.zooms),
+            left=0.85 / self.width,
+            right=1.0 - 0.25 / self.width,
+            top=1.0 - self.top_in / self.height,
+            bottom=self.bottom_in / self.height,
+            wspace=0.28,
+            hspace=0.45,
+        )
+        return fig, gs
+
+
+def _curves_and_gaps(ax, fr: FrequencyResponse, name: str, curves: tuple, window: tuple[float, float]):
+    """Branches, overlays and references, special points and gaps of coordinate ``name`` over
+    ``window``; returns the branches' amplitudes there and the special points drawn."""
+    grid, references, overlays = curves
+    amps = _draw_branches(ax, fr, name, window)
+    if grid is not None:
+        _draw_overlays(ax, references, grid, name, REFERENCE_STYLE)
+        _draw_overlays(ax, overlays, grid, name, OVERLAY_STYLE)
+    items = _special_points(fr, name, window)
+    _draw_special(ax, items)
+    for a, b in fr.gaps:
+        ax.axvspan(a, b, color="C3", alpha=0.15, lw=0, zorder=0)
+    return amps, items
+
+
+def _full_panel(
+    ax, fr: FrequencyResponse, name: str, lay: _Layout, curves: tuple, renderer
+) -> tuple[bool, int]:
+    """The panel of the whole range for ``name``; returns (its amplitude axis is logarithmic,
+    labels left out)."""
+    lo, hi = lay.p_range
+    unit = unit_of(fr.system, name)
+    amps, items = _curves_and_gaps(ax, fr, name, curves, (lo, hi))
+    pos = [a for a in amps if a > 0]
+    log = bool(pos) and max(pos) > 10.0 * min(pos)  # one scale for the row: log where amplitudes span decades
+    if log:
+        ax.set_yscale("log")
+        ax.set_ylim(min(pos) / 3.0, max(pos) * 5.0)
+    elif amps:
+        ax.set_ylim(0.0, 1.2 * max(amps) if max(amps) > 0 else 1.0)
+    ax.set_xlim(lo, hi)
+    for (a, b, _), letter in zip(lay.zooms, lay.letters, strict=True):
+        ax.axvspan(a, b, color=ZOOM_COLOUR, alpha=0.18, lw=0.8, ec=ZOOM_COLOUR, zorder=0)
+        ax.annotate(
+            letter,
+            (0.5 * (a + b), 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(0, -2),
+            textcoords="offset points",
+            ha="center",
+            va="top",
+            fontsize=8,
+            color=ZOOM_COLOUR,
+            fontweight="bold",
+            bbox=dict(boxstyle="round,pad=0.1", fc="w", ec="none", alpha=0.85),
+            zorder=7,
+        )
+    ax.xaxis.set_major_locator(MaxNLocator(6))
+    ax.ticklabel_format(axis="x", useOffset=False)
+    ax.set_ylabel(f"max |{name}|" + (f" [{unit}]" if unit else ""))
+    ax.set_title(
+        f"{name}, {lay.par} {lo:.6g} to {hi:.6g}"
+        + (f" {lay.par_unit}" if lay.par_unit else "")
+        + (f" (zoomed: {', '.join(lay.letters)})" if lay.zooms else ""),
+        fontsize=9,
+        y=1.0,
+    )
+    ax.grid(alpha=0.3, which="both")
+    return log, (_label_special(ax, items, renderer, lay.par_unit) if not lay.zooms else 0)
+
+
+def _zoom_panel(
+    az, fr, name: str, lay: _Layout, curves: tuple, window, letter: str, log: bool, renderer
+) -> int:
+    """The zoom panel ``letter`` on ``window`` ``(a, b, natural frequency or None)``; returns the
+    labels left out."""
+    a, b, w = window
+    inside, zitems = _curves_and_gaps(az, fr, name, curves, (a, b))
+    az.set_xlim(a, b)
+    zpos = [v for v in inside if v > 0]
+    if log:
+        az.set_yscale("log")
+        if zpos:
+            az.set_ylim(min(zpos) / 1.5, max(zpos) * 1.5)
+        if zpos and max(zpos) < 30 * min(zpos):  # under a decade or so: plain numbers
+            az.yaxis.set_major_formatter(PLAIN)
+            az.yaxis.set_minor_formatter(PLAIN)
+    elif inside:
+        az.set_ylim(0.0, 1.2 * max(inside) if max(inside) > 0 else 1.0)
+    kinds = sorted({it["kind"] for it in zitems})
+    what = ", ".join(SHORT.get(k, k) for k in kinds)
+    if w is not None:
+        az.axvline(w, color="0.5", lw=0.6, ls=":")
+        what = (what + "; " if what else "") + f"natural frequency {w:.5g} (dotted)"
+    az.set_title(
+        f"{letter}: {name}, {lay.par} {a:.6g} to {b:.6g}"
+        + (f" {lay.par_unit}" if lay.par_unit else "")
+        + (f"\n{what}" if what else ""),
+        fontsize=8.5,
+        y=1.0,
+    )
+    az.xaxis.set_major_locator(MaxNLocator(5))
+    az.ticklabel_format(axis="x", useOffset=False)
+    az.grid(alpha=0.3, which="both")
+    return _label_special(az, zitems, renderer, lay.par_unit)
+
+
+def _legend_handles(
+    fr: FrequencyResponse, references: dict, overlays: dict, lay: _Layout, dropped: int
+) -> list:
+    """The figure's legend: branch styles, curves, special points, intervals, zooms, gaps."""
     handles = [Line2D([], [], **STYLE[s], label=LABEL[s]) for s in STYLE]
     handles += [
         Line2D([], [], **REFERENCE_STYLE[k % len(REFERENCE_STYLE)], label=c) for k, c in enumerate(references)
@@ -519,8 +597,8 @@ def plot_frc(
         handles.append(
             Line2D([], [], color="0.2", lw=5.0, alpha=0.35, label="bracketed: the interval where it lies")
         )
-    if zooms:
-        handles.append(Patch(color=ZOOM_COLOUR, alpha=0.18, label=f"zoomed ({', '.join(letters)})"))
+    if lay.zooms:
+        handles.append(Patch(color=ZOOM_COLOUR, alpha=0.18, label=f"zoomed ({', '.join(lay.letters)})"))
     if fr.gaps:
         handles.append(Patch(color="C3", alpha=0.15, label="no orbit computed"))
     if dropped:
@@ -532,8 +610,4 @@ def plot_frc(
                 label=f"{dropped} labels left out where they would overlap (see frc_special.csv)",
             )
         )
-    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 3), fontsize=8, frameon=False)
-    fig.suptitle("\n".join(head), fontsize=10, y=1.0 - 0.25 / height, va="top")
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    return path
+    return handles
