@@ -26,12 +26,14 @@ from ..core.budget import restore_deadline as _deadline
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
+from ..core.plain import options_text
 from ..core.status import BranchStatus, ResponseStatus
 from ..core.threads import with_blas_threads
 from ..core.workers import ProcessPool, run_calls, send
 from ..model.linear import natural_frequencies
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem, shared
+from ..orbits.orbit import ORBIT_OPTIONS
 from .branch import Branch, forcing_parameter
 from .forced import continue_orbits
 
@@ -136,6 +138,11 @@ class FrequencyResponse:
     limit : str
         Where the deadline in force came from (e.g. ``"hybrid.time_limit; CLI --max-time"``),
         named by :meth:`messages` when it stopped the computation.
+    options : SolverOptions or None
+        The solver options it was computed with (given, or the default :data:`hybrid.ORBIT_OPTIONS`
+        in their place); with :attr:`settings`, :attr:`params` and :attr:`p_range` they repeat it.
+    settings : ContinuationOptions or None
+        The continuation options it was computed with (given, or ``ContinuationOptions()``).
     """
 
     system: HybridSystem
@@ -148,6 +155,8 @@ class FrequencyResponse:
     reason: str = ""
     #: Where the deadline that stopped it comes from (:func:`hybrid.core.budget.limit_text`).
     limit: str = "hybrid.time_limit; CLI --max-time"
+    options: SolverOptions | None = None
+    settings: ContinuationOptions | None = None
 
     @property
     def branches(self) -> list[Branch]:
@@ -227,7 +236,8 @@ class FrequencyResponse:
             f"FrequencyResponse({self.system.name} in {self.parameter} from {lo:.6g} to {hi:.6g}: "
             f"{_count(len(self.branches), 'branch', 'branches')}, {_count(n, 'orbit', 'orbits')}, "
             f"{_count(ns, 'special point', 'special points')}, {_count(len(self.gaps), 'gap', 'gaps')}; "
-            f"{self.status}" + (f" ({self.reason})" if self.reason else "") + ")"
+            f"{self.status}" + (f" ({self.reason})" if self.reason else "") + "; "
+            f"options={options_text(self.options)}, settings={options_text(self.settings)})"
         )
 
 
@@ -356,8 +366,11 @@ def frequency_response(
         raise InputError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
     if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise InputError(f"`workers` must be an integer >= 1, got {workers!r}")
+    options = ORBIT_OPTIONS if options is None else options  # (what continue_orbits takes for None)
+    settings = ContinuationOptions() if settings is None else settings
     res = resonances(system, params)
-    out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
+    out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res, options=options)
+    out.settings = settings
     cuts = _cuts(lo, hi, res)
     job = _PieceJob(system, dict(params), parameter, options, settings)
     if workers > 1 and len(cuts) > 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -365,21 +378,29 @@ def frequency_response(
             job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point, while_computing
         )
     else:
-        total, done = hi - lo, 0.0
-        for a, b, w in cuts:
-            k0 = len(out.branches)
-            report = (
-                None
-                if progress is None
-                else (lambda f, d=done, a=a, b=b: progress(min(1.0, (d + f * (b - a)) / total)))
-            )
-            sink = None if on_point is None else (lambda j, o, k0=k0: on_point(k0 + j, o))
-            out.pieces.append(job.piece(a, b, w, report, sink))
-            done += b - a
-            if progress is not None:
-                progress(done / total)
+        out.pieces = _serial(job, cuts, lo, hi, progress, on_point)
     out.conclude()
     return out
+
+
+def _serial(job: _PieceJob, cuts, lo: float, hi: float, progress, on_point) -> list[Piece]:
+    """The pieces computed one after the other in this process (progress over the whole range,
+    orbits passed on with their index among all the branches)."""
+    pieces: list[Piece] = []
+    total, done = hi - lo, 0.0
+    for a, b, w in cuts:
+        k0 = sum(len(pc.branches) for pc in pieces)
+        report = (
+            None
+            if progress is None
+            else (lambda f, d=done, a=a, b=b: progress(min(1.0, (d + f * (b - a)) / total)))
+        )
+        sink = None if on_point is None else (lambda j, o, k0=k0: on_point(k0 + j, o))
+        pieces.append(job.piece(a, b, w, report, sink))
+        done += b - a
+        if progress is not None:
+            progress(done / total)
+    return pieces
 
 
 @dataclass

@@ -47,6 +47,7 @@ from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.files import FolderLock, write_atomic
 from ..core.options import ContinuationOptions, SolverOptions
+from ..core.plain import options_text
 from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
 from ..core.workers import run_calls
@@ -477,6 +478,12 @@ class SweepResult:
         have no file and are computed by a resumed sweep.
     stopped : str
         Why the sweep stopped before its last point (its deadline passed), ``""`` if it did not.
+    options : SolverOptions or None
+        The solver options of every point, as :func:`sweep` was given them (or its default); None
+        for a sweep read back by :func:`load_sweep`, whose manifest holds them as data
+        (``manifest["options"]``).
+    settings : ContinuationOptions or None
+        The continuation options of every point (likewise; ``manifest["settings"]``).
     """
 
     folder: Path
@@ -486,6 +493,8 @@ class SweepResult:
     reused: list = field(default_factory=list)
     lost: list = field(default_factory=list)
     stopped: str = ""
+    options: SolverOptions | None = None
+    settings: ContinuationOptions | None = None
 
     @property
     def axes(self) -> list[Axis]:
@@ -512,7 +521,9 @@ class SweepResult:
         m = self.manifest
         grid = " x ".join(f"{a['name']} ({len(a['values'])})" for a in m["axes"])
         counts = ", ".join(f"{v} {k}" for k, v in self.counts().items() if v)
-        return f"SweepResult({m['model']} over {grid} in {str(self.folder)!r}: {counts})"
+        given = [(n, getattr(self, n)) for n in ("options", "settings") if getattr(self, n) is not None]
+        opts = "; " + ", ".join(f"{n}={options_text(v)}" for n, v in given) if given else ""
+        return f"SweepResult({m['model']} over {grid} in {str(self.folder)!r}: {counts}{opts})"
 
 
 #: Largest manifest read [bytes] (a grid of MAX_POINTS values takes about 3 MB).
@@ -951,6 +962,7 @@ def _run(
     write_atomic(path, to_json(manifest) + "\n")
 
     res = load_sweep(folder)
+    res.options, res.settings = rest[2], rest[3]  # (p_range, coordinate, options, settings, limit)
     res.reused = sorted(res.points)
     todo = [i for i in grid if i not in res.points]
     total = len(grid)
