@@ -34,6 +34,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import contextmanager
 
+from .errors import InputTypeError, WorkerError
 from .threads import blas_threads, new_process
 
 __all__ = [
@@ -252,11 +253,14 @@ def send(message) -> None:
 
     Raises
     ------
-    RuntimeError
+    hybrid.core.errors.WorkerError
         Not in a worker of a forked :class:`ProcessPool` (a task that reports must be run there).
     """
     if _CHANNEL is None:
-        raise RuntimeError("hybrid.core.workers.send: called outside a worker of a forked ProcessPool")
+        raise WorkerError(
+            "hybrid.core.workers.send: called outside a worker of a forked ProcessPool; run the task on "
+            "one (run_calls with on_message)"
+        )
     _CHANNEL.put(message)
 
 
@@ -401,6 +405,11 @@ def run_calls(
         The calls whose outcome was not handed over (``stop`` stopped the run), in order; ``[]``
         after a complete run.
 
+    Raises
+    ------
+    hybrid.core.errors.InputTypeError
+        ``on_message`` with an executor that is not a forked :class:`ProcessPool`.
+
     Notes
     -----
     On any exit (an interrupt included) the calls not started are withdrawn (``cancel``); those
@@ -410,7 +419,9 @@ def run_calls(
     receive = None
     if on_message is not None:
         if not getattr(executor, "forks", False):
-            raise TypeError("run_calls: `on_message` needs a forked ProcessPool as executor")
+            raise InputTypeError(
+                f"run_calls: `on_message` needs a forked ProcessPool as executor, got {type(executor).__name__}"
+            )
         receive = executor.receive
     done: queue.Queue = queue.Queue()
     pending: dict = {}

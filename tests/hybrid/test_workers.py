@@ -13,6 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
+from hybrid.core.errors import WorkerError
 from hybrid.core.threads import BLAS_THREADS_ENV
 from hybrid.core.workers import ProcessPool, _Channel, run_calls, send
 
@@ -128,5 +129,5 @@ def test_a_pool_task_runs_with_one_blas_thread(monkeypatch):
 def test_messages_need_a_forked_pool_and_a_worker():
     with ThreadPoolExecutor(1) as ex, pytest.raises(TypeError, match="needs a forked ProcessPool"):
         run_calls(ex, abs, [(1,)], on_result=print, on_error=print, on_message=print)
-    with pytest.raises(RuntimeError, match="outside a worker of a forked ProcessPool"):
+    with pytest.raises(WorkerError, match="outside a worker of a forked ProcessPool"):
         send("hello")
