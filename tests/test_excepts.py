@@ -24,26 +24,21 @@ BROAD = frozenset({"Exception", "BaseException"})
 #: The broad catches that swallow on purpose: (file, function, reason), one row per handler.
 ALLOWED = (
     (
-        "hybrid/continuation/frc.py",
-        "_worker_main",
-        "a forked worker's boundary: any failure (interrupt included) is sent to the parent, "
-        "which raises it as a WorkerError naming its type",
-    ),
-    (
         "hybrid/studies/sweep.py",
         "run_point",
         "a sweep point's boundary: any failure of the user's point is recorded as its result "
         "(status failed, reason exception, type, message and line) and the sweep goes on",
     ),
     (
-        "hybrid/studies/sweep.py",
-        "_run",
-        "an executor's failure to return a point (a dead worker, Dask's KilledWorker, a cancelled "
-        "future: no common base) is recorded in SweepResult.lost with its type and reported",
+        "hybrid/core/workers.py",
+        "run_calls",
+        "an executor's failure to return a call (a dead worker, Dask's KilledWorker, a cancelled "
+        "future: no common base) is handed to the caller's on_error (a sweep records it in "
+        "SweepResult.lost with its type; a frequency response raises it as a WorkerError)",
     ),
     (
-        "hybrid/studies/sweep.py",
-        "_run",
+        "hybrid/core/workers.py",
+        "run_calls",
         "withdrawing the futures not started, in a `finally` that may run while another exception "
         "propagates: a Dask client already closed raises ClosedClientError (an Exception only)",
     ),
@@ -313,7 +308,7 @@ def test_the_allow_list_arithmetic_flags_a_second_handler_in_an_allowed_function
     found = [("hybrid/studies/sweep.py", "run_point", 1, "Exception")] * 2
     extra, stale = _unallowed(found)
     assert len(extra) == 2  # one row for run_point: two handlers there are one too many
-    assert ("hybrid/continuation/frc.py", "_worker_main") in stale
+    assert ("hybrid/cli/frc.py", "frc_overlays") in stale
 
 
 # ----------------------------------------------------------------------------------------------

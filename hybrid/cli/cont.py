@@ -31,6 +31,7 @@ from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branc
 from ..continuation.branch import Branch
 from ..core.budget import deadline_passed, time_limit
 from ..core.errors import BudgetExceeded
+from ..core.plain import plain_data
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus
 from ..engine.io import to_json
@@ -130,25 +131,7 @@ def _rows_of_orbits(kind: str, k: int, branch, coord: str) -> list[dict]:
 def run(args) -> int:
     """Handler of ``hybrid cont``."""
     system = model(args.model)
-    if system.period is not None:
-        raise UsageError(
-            f"model `{system.name}` is periodically forced: use `hybrid frc --parameter {args.param}`"
-        )
-    if args.param not in system.parameter_names:
-        raise UsageError(
-            f"model `{system.name}` has no parameter `{args.param}`; parameters: "
-            f"{', '.join(system.parameter_names)}"
-        )
-    lo, hi = sorted(args.range)
-    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-        raise UsageError(f"--range must be two different finite numbers, got {args.range}")
-    preset, params = parameters(system, args)
-    x0, mode0 = guess(system, args)
-    system.parameter_values({**params, args.param: lo})  # a range outside the domain -> ValueError
-    system.parameter_values({**params, args.param: hi})
-    coord = args.coordinate or (list(system.plot.get("displacements", ())) or list(system.variable_names))[0]
-    if coord not in system.variable_names and coord not in system.outputs:
-        raise UsageError(f"--coordinate `{coord}` is neither a variable nor an output of `{system.name}`")
+    lo, hi, preset, params, (x0, mode0), coord = _checked_args(args, system)
     options = solver_options(args)
     time_scale(system, params, None)  # a model without a period guess is refused here
     out = output_dir(system, args)
@@ -163,6 +146,9 @@ def run(args) -> int:
         "parameter": args.param,
         "range": [lo, hi],
         "coordinate": coord,
+        # the options of the orbit branches (issue 29 item 6): hybrid.orbit_branch(..., options=, settings=)
+        "options": plain_data(options),
+        "settings": plain_data(settings),
         "equilibria": [],
         "orbit_branches": [],
     }
@@ -303,6 +289,31 @@ def _compute(
                     ),
                 )
             )
+
+
+def _checked_args(args, system):
+    """The arguments of ``hybrid cont`` checked against the model (each error says what to give):
+    ``(lo, hi, preset, params, (x0, mode0), coordinate)``."""
+    if system.period is not None:
+        raise UsageError(
+            f"model `{system.name}` is periodically forced: use `hybrid frc --parameter {args.param}`"
+        )
+    if args.param not in system.parameter_names:
+        raise UsageError(
+            f"model `{system.name}` has no parameter `{args.param}`; parameters: "
+            f"{', '.join(system.parameter_names)}"
+        )
+    lo, hi = sorted(args.range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise UsageError(f"--range must be two different finite numbers, got {args.range}")
+    preset, params = parameters(system, args)
+    x0, mode0 = guess(system, args)
+    system.parameter_values({**params, args.param: lo})  # a range outside the domain -> ValueError
+    system.parameter_values({**params, args.param: hi})
+    coord = args.coordinate or (list(system.plot.get("displacements", ())) or list(system.variable_names))[0]
+    if coord not in system.variable_names and coord not in system.outputs:
+        raise UsageError(f"--coordinate `{coord}` is neither a variable nor an output of `{system.name}`")
+    return lo, hi, preset, params, (x0, mode0), coord
 
 
 def _late(system, params, parameter: str, lo: float) -> Branch:

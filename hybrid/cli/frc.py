@@ -19,6 +19,7 @@ from ..continuation.frc import Piece, default_range, frequency_response
 from ..continuation.switching import SWITCHABLE, switch_branch
 from ..core.budget import time_limit
 from ..core.errors import HybridError
+from ..core.plain import options_text, plain_data
 from ..core.progress import ProgressBar
 from ..core.status import BranchStatus, ResponseStatus
 from ..core.workers import Terminated, cap_workers
@@ -165,6 +166,7 @@ def frc_text(fr, preset: str | None) -> str:
         f"  natural frequencies of {whose}: "
         + (", ".join(f"{w:.6g}" for w in fr.resonances) or "none")
         + " rad/s",
+        f"  computed with options={options_text(fr.options)}, settings={options_text(fr.settings)}",
     ]
     coords = list(plot_hints(system)["displacements"])
     for k, b in enumerate(fr.branches):
@@ -404,12 +406,27 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
 
         plot_frc(fr, staged.path("frc.png"), overlays=overlays, grid=grid, references=references)
         files.append(out / "frc.png")
-    summary = {
+    summary = _summary(fr, preset, params, (lo, hi), special, switched, overlays, references)
+    summary.update(wall_time_s=wall, files=[str(f) for f in files] + [str(out / "frc.json")])
+    staged.path("frc.json").write_text(to_json(summary) + "\n")
+    files.append(out / "frc.json")
+    return fr, files, summary, wall
+
+
+def _summary(fr, preset, params: dict, p_range, special: list, switched: list, overlays, references) -> dict:
+    """frc.json (without its wall time and files): the input, the options that repeat the
+    computation, the branches, special points, gaps and the overlays drawn."""
+    system, par = fr.system, fr.parameter
+    lo, hi = p_range
+    return {
         "model": system.name,
         "preset": preset,
         "parameter": par,
         "parameters": {k: v for k, v in params.items() if k != par},
         "omega_range": [lo, hi],
+        # what repeats the computation (issue 29 item 6): hybrid.frequency_response(..., options=, settings=)
+        "options": plain_data(fr.options),
+        "settings": plain_data(fr.settings),
         "natural_frequencies": [float(w) for w in fr.resonances],
         "branches": [
             {
@@ -428,12 +445,7 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
         "complete": fr.status == ResponseStatus.COMPLETE,
         "overlays": list(overlays),
         "linear_references": {c: plot_hints(system)["linear_references"][c] for c in references},
-        "wall_time_s": wall,
-        "files": [str(f) for f in files] + [str(out / "frc.json")],
     }
-    staged.path("frc.json").write_text(to_json(summary) + "\n")
-    files.append(out / "frc.json")
-    return fr, files, summary, wall
 
 
 def _signal_name(exc: KeyboardInterrupt) -> str:

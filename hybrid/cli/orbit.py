@@ -7,6 +7,7 @@ import time
 from ..continuation.periodic import periodic_orbit
 from ..core.budget import time_limit
 from ..core.options import ShootingOptions
+from ..core.plain import options_text
 from ..engine.io import to_json, write_trajectory_csv
 from ..orbits.orbit import PeriodicOrbit, stability_text
 from .common import (
@@ -68,7 +69,10 @@ def orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
     head = f"{system.name}" + (f", preset `{preset}`" if preset else "")
     head += (f", Omega = {omega:g} rad/s" if omega is not None else "") + f": period T = {orbit.period:.9g} s"
     head += " (autonomous: the period is an unknown, found with the orbit)" if system.period is None else ""
-    lines = [head]
+    lines = [
+        head,
+        f"  computed with options={options_text(orbit.options)}, settings={options_text(orbit.settings)}",
+    ]
     if not orbit.converged:
         lines.append(f"  NO periodic orbit: {orbit.message}")
         return "\n".join(lines)

@@ -6,6 +6,7 @@ import argparse
 import time
 
 from ..core.budget import time_limit
+from ..core.plain import plain_data
 from ..core.progress import ProgressBar
 from ..engine.io import EventsCSVWriter, TrajectoryCSVWriter, to_json, trajectory_summary
 from ..engine.record import MAX_STREAMED_SAMPLES, Envelope, Sink, Tee
@@ -158,6 +159,7 @@ def cmd_simulate(args) -> int:
                 "preset": preset,
                 "omega": params.get("Omega"),
                 "periods": round(t_end / period, 9) if period else None,
+                "options": plain_data(traj.options),  # what repeats the run (issue 29 item 6)
                 "wall_time_s": wall,
                 "files": [str(files.final(n)) for n in written],
             }

@@ -38,7 +38,7 @@ from ..orbits.equilibria import Equilibrium, equilibrium, locate_hopf
 from ..orbits.flowmap import FlowMap
 from ..orbits.orbit import ORBIT_OPTIONS, PeriodicOrbit
 from .autolocate import FAILURES, AutoPoint, Locator, locate_end
-from .branch import Branch
+from .branch import Branch, with_options
 from .palc import RETRY, follow
 from .special import SpecialPoint, detect, locate
 
@@ -445,7 +445,7 @@ def orbit_branch(
     u0 = np.concatenate([orbit.x0[d], extra, [orbit.params[parameter]]])
     t0 = np.zeros(u0.size)
     t0[-1] = direction
-    return _branch(
+    branch = _branch(
         fm,
         solver,
         orbit.mode0,
@@ -457,6 +457,7 @@ def orbit_branch(
         stop_on_mode_change,
         orbit.period,
     )
+    return with_options(branch, options, settings)
 
 
 @with_blas_threads
@@ -521,4 +522,5 @@ def hopf_branch(
     x_eq = eq.x[d]
     u0 = np.concatenate([x_eq + settings.ds * qr, [T, eq.params[parameter]]])
     t0 = np.concatenate([qr, [0.0, 0.0]])
-    return _branch(fm, solver, eq.mode, eq.x.copy(), u0, t0, p_range, settings, stop_on_mode_change, T)
+    branch = _branch(fm, solver, eq.mode, eq.x.copy(), u0, t0, p_range, settings, stop_on_mode_change, T)
+    return with_options(branch, options, settings)

@@ -8,7 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import InputError, ModelError
+from ..core.options import ContinuationOptions
+from ..core.plain import options_text
 from ..core.status import BranchStatus
+from ..integrators.options import SolverOptions
 from ..model.expr import free_symbols
 from ..model.system import HybridSystem
 from ..orbits.equilibria import Equilibrium
@@ -16,7 +19,7 @@ from ..orbits.orbit import (
     PeriodicOrbit,
 )
 
-__all__ = ["Branch", "BRANCH_KINDS", "forcing_parameter", "orbit_row"]
+__all__ = ["Branch", "BRANCH_KINDS", "forcing_parameter", "orbit_row", "with_options"]
 
 #: What a branch holds: periodic orbits of a forced model (:func:`hybrid.continue_orbits`), of an
 #: autonomous one (:func:`hybrid.orbit_branch`, :func:`hybrid.hopf_branch`), or equilibria of one
@@ -51,6 +54,12 @@ class Branch:
         ``"grazing"``, ``"period-jump"``); ``""`` if completed.
     message : str
         The same in words, with the parameter value where it happened.
+    options : SolverOptions or None
+        The solver options it was computed with (those given to the function that computed it, or
+        its default in their place); with :attr:`settings`, :attr:`params` and the range they repeat
+        the computation. None where no options were used (a branch of equilibria).
+    settings : ContinuationOptions or None
+        The continuation options it was computed with (likewise).
     """
 
     kind: str
@@ -62,6 +71,8 @@ class Branch:
     status: BranchStatus = BranchStatus.COMPLETED
     reason: str = ""
     message: str = ""
+    options: SolverOptions | None = None
+    settings: ContinuationOptions | None = None
 
     def __post_init__(self):
         if self.kind not in BRANCH_KINDS:
@@ -98,6 +109,7 @@ class Branch:
     def __repr__(self) -> str:
         what = f"Branch({self.kind} of {self.system.name} in {self.parameter}"
         end = f"{self.status}" + (f" ({self.reason})" if self.reason else "")
+        end += self._options_text()
         if not self.points:
             return f"{what}: no point; {end})"
         v = self.values
@@ -108,6 +120,20 @@ class Branch:
             f"{what}: {len(self.points)} point{'' if len(self.points) == 1 else 's'} from {v[0]:.6g} to {v[-1]:.6g}, "
             f"special: [{', '.join(kinds)}]; {end})"
         )
+
+    def _options_text(self) -> str:
+        """``"; options=SolverOptions(...), settings=ContinuationOptions(...)"`` (those set)."""
+        given = [(n, getattr(self, n)) for n in ("options", "settings") if getattr(self, n) is not None]
+        return "; " + ", ".join(f"{n}={options_text(v)}" for n, v in given) if given else ""
+
+
+def with_options(
+    branch: Branch, options: SolverOptions | None, settings: ContinuationOptions | None
+) -> Branch:
+    """``branch`` with the options it was computed with recorded (:attr:`Branch.options`,
+    :attr:`Branch.settings`)."""
+    branch.options, branch.settings = options, settings
+    return branch
 
 
 def _amplitudes(o) -> tuple[dict, dict]:

@@ -655,6 +655,55 @@ def continue_orbits(
         settings=settings if isinstance(settings, ContinuationOptions) else ContinuationOptions,
     )
     options = ORBIT_OPTIONS if options is None else options
+    settings, parameter, (a, b), start_params, mode0, y0 = _checked_input(
+        system, params, parameter, p_range, x0, mode0, t0, periods, settings
+    )
+    c = OrbitContinuer(system, start_params, parameter, (a, b), options, settings, periods)
+    for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
+        c.at(p)
+        n = settings.transient_periods + 1 if p == a else 2
+        check_time_range(c.sh.cs, options, 0.0, n * c.sh.period)
+    direction = 1.0 if b > a else -1.0
+    branch = Branch(
+        "forced-orbits", system, dict(start_params), parameter, options=options, settings=settings
+    )
+
+    def add(orbit: PeriodicOrbit) -> int:
+        branch.points.append(orbit)
+        if on_point is not None:
+            on_point(0, orbit)
+        return len(branch.points) - 1
+
+    _start_and_follow(c, branch, y0, mode0, float(t0), direction, add, progress)
+    return branch
+
+
+def _start_and_follow(
+    c: OrbitContinuer, branch: Branch, y0, mode0: str, t0: float, direction, add, progress
+) -> None:
+    """The first orbit of :func:`continue_orbits` from the guess ``(t0, y0, mode0)``, then the
+    branch from it; a budget that runs out stops the branch there."""
+    settings = c.settings
+    try:
+        first = solve_orbit(
+            c.sh,
+            y0,
+            mode0,
+            t0,
+            settings.transient_periods,
+            settings.newton.tol,
+            FIRST_ORBIT_MAX_ITER,
+            settings.samples_per_period,
+        )
+        follow_branch(c, branch, first, direction, add, progress)
+    except BudgetExceeded as exc:  # the budget of a run or the computation's deadline: stop here
+        last = branch.points[-1].params[c.parameter] if branch.points else c.a
+        branch.stop("budget", f"stopped at {c.parameter}={last:.8g}: {exc}")
+
+
+def _checked_input(system, params, parameter, p_range, x0, mode0, t0, periods, settings):
+    """The input of :func:`continue_orbits` checked (each error names what to give):
+    ``(settings, parameter, (a, b), start_params, mode0, y0)`` with the defaults in place."""
     if not isinstance(system, HybridSystem):
         raise InputTypeError(f"`system` must be a HybridSystem, got {type(system).__name__}")
     if settings is None:
@@ -682,36 +731,7 @@ def continue_orbits(
         raise InputError(f"`periods` must be an integer >= 1, got {periods!r}")
     if not math.isfinite(float(t0)):
         raise InputError(f"`t0` must be a finite time, got {t0!r}")
-    c = OrbitContinuer(system, start_params, parameter, (a, b), options, settings, periods)
-    for p in (b, a):  # both ends of the range must be resolvable in time (a at its transient)
-        c.at(p)
-        n = settings.transient_periods + 1 if p == a else 2
-        check_time_range(c.sh.cs, options, 0.0, n * c.sh.period)
-    direction = 1.0 if b > a else -1.0
-    branch = Branch("forced-orbits", system, dict(start_params), parameter)
-
-    def add(orbit: PeriodicOrbit) -> int:
-        branch.points.append(orbit)
-        if on_point is not None:
-            on_point(0, orbit)
-        return len(branch.points) - 1
-
-    try:
-        first = solve_orbit(
-            c.sh,
-            y0,
-            mode0,
-            float(t0),
-            settings.transient_periods,
-            settings.newton.tol,
-            FIRST_ORBIT_MAX_ITER,
-            settings.samples_per_period,
-        )
-        follow_branch(c, branch, first, direction, add, progress)
-    except BudgetExceeded as exc:  # the budget of a run or the computation's deadline: stop here
-        last = branch.points[-1].params[parameter] if branch.points else a
-        branch.stop("budget", f"stopped at {parameter}={last:.8g}: {exc}")
-    return branch
+    return settings, parameter, (a, b), start_params, mode0, y0
 
 
 def follow_branch(

@@ -14,7 +14,9 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import signal
 from collections.abc import Callable, Mapping
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,13 +26,15 @@ from ..core.budget import restore_deadline as _deadline
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
 from ..core.options import ContinuationOptions, reject_keywords
+from ..core.plain import options_text
 from ..core.status import BranchStatus, ResponseStatus
 from ..core.threads import with_blas_threads
-from ..core.workers import die_with_parent
+from ..core.workers import ProcessPool, run_calls, send
 from ..integrators.options import SolverOptions
 from ..model.linear import natural_frequencies
 from ..model.plot_hints import plot_hints
 from ..model.system import HybridSystem, shared
+from ..orbits.orbit import ORBIT_OPTIONS
 from .branch import Branch, forcing_parameter
 from .forced import continue_orbits
 
@@ -135,6 +139,11 @@ class FrequencyResponse:
     limit : str
         Where the deadline in force came from (e.g. ``"hybrid.time_limit; CLI --max-time"``),
         named by :meth:`messages` when it stopped the computation.
+    options : SolverOptions or None
+        The solver options it was computed with (given, or the default :data:`hybrid.ORBIT_OPTIONS`
+        in their place); with :attr:`settings`, :attr:`params` and :attr:`p_range` they repeat it.
+    settings : ContinuationOptions or None
+        The continuation options it was computed with (given, or ``ContinuationOptions()``).
     """
 
     system: HybridSystem
@@ -147,6 +156,8 @@ class FrequencyResponse:
     reason: str = ""
     #: Where the deadline that stopped it comes from (:func:`hybrid.core.budget.limit_text`).
     limit: str = "hybrid.time_limit; CLI --max-time"
+    options: SolverOptions | None = None
+    settings: ContinuationOptions | None = None
 
     @property
     def branches(self) -> list[Branch]:
@@ -226,7 +237,8 @@ class FrequencyResponse:
             f"FrequencyResponse({self.system.name} in {self.parameter} from {lo:.6g} to {hi:.6g}: "
             f"{_count(len(self.branches), 'branch', 'branches')}, {_count(n, 'orbit', 'orbits')}, "
             f"{_count(ns, 'special point', 'special points')}, {_count(len(self.gaps), 'gap', 'gaps')}; "
-            f"{self.status}" + (f" ({self.reason})" if self.reason else "") + ")"
+            f"{self.status}" + (f" ({self.reason})" if self.reason else "") + "; "
+            f"options={options_text(self.options)}, settings={options_text(self.settings)})"
         )
 
 
@@ -355,8 +367,11 @@ def frequency_response(
         raise InputError(f"the frequency range must satisfy 0 < A < B, got {lo!r}, {hi!r}")
     if not (isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1):
         raise InputError(f"`workers` must be an integer >= 1, got {workers!r}")
+    options = ORBIT_OPTIONS if options is None else options  # (what continue_orbits takes for None)
+    settings = ContinuationOptions() if settings is None else settings
     res = resonances(system, params)
-    out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res)
+    out = FrequencyResponse(system, dict(params), parameter, (lo, hi), res, options=options)
+    out.settings = settings
     cuts = _cuts(lo, hi, res)
     job = _PieceJob(system, dict(params), parameter, options, settings)
     if workers > 1 and len(cuts) > 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -364,27 +379,35 @@ def frequency_response(
             job, cuts, min(workers, len(cuts)), lo, hi, progress, on_point, while_computing
         )
     else:
-        total, done = hi - lo, 0.0
-        for a, b, w in cuts:
-            k0 = len(out.branches)
-            report = (
-                None
-                if progress is None
-                else (lambda f, d=done, a=a, b=b: progress(min(1.0, (d + f * (b - a)) / total)))
-            )
-            sink = None if on_point is None else (lambda j, o, k0=k0: on_point(k0 + j, o))
-            out.pieces.append(job.piece(a, b, w, report, sink))
-            done += b - a
-            if progress is not None:
-                progress(done / total)
+        out.pieces = _serial(job, cuts, lo, hi, progress, on_point)
     out.conclude()
     return out
 
 
+def _serial(job: _PieceJob, cuts, lo: float, hi: float, progress, on_point) -> list[Piece]:
+    """The pieces computed one after the other in this process (progress over the whole range,
+    orbits passed on with their index among all the branches)."""
+    pieces: list[Piece] = []
+    total, done = hi - lo, 0.0
+    for a, b, w in cuts:
+        k0 = sum(len(pc.branches) for pc in pieces)
+        report = (
+            None
+            if progress is None
+            else (lambda f, d=done, a=a, b=b: progress(min(1.0, (d + f * (b - a)) / total)))
+        )
+        sink = None if on_point is None else (lambda j, o, k0=k0: on_point(k0 + j, o))
+        pieces.append(job.piece(a, b, w, report, sink))
+        done += b - a
+        if progress is not None:
+            progress(done / total)
+    return pieces
+
+
 @dataclass
 class _PieceJob:
-    """What every piece of one frequency response shares (read by forked workers from the parent's
-    memory: nothing of it is pickled)."""
+    """What every piece of one frequency response shares (sent to a worker with each piece: its
+    model by reference, :func:`hybrid.model.system.shared`)."""
 
     system: HybridSystem
     params: dict
@@ -445,99 +468,97 @@ class _PieceJob:
         return piece
 
 
-#: The job of the worker processes of :func:`_parallel` and their channel to the parent (set in the
-#: parent before the workers fork: they read it from its memory).
-_WORKER: dict = {}
+def _piece_in_worker(job: _PieceJob, index: int, a: float, b: float, w: float | None, deadline) -> Piece:
+    """Piece ``index`` in a worker of a :class:`hybrid.core.workers.ProcessPool`: the worker's pid,
+    then its progress and its orbits sent to the parent as they come; the piece returned."""
+    send(("start", index, os.getpid()))
+    with _deadline(deadline):
+        return job.piece(
+            a,
+            b,
+            w,
+            lambda f: send(("progress", index, f)),
+            lambda j, o: send(("point", index, j, o)),
+        )
 
 
-def _worker_main(index: int, a: float, b: float, w: float | None, deadline) -> None:
-    """A forked worker: piece ``index``; its progress, its orbits and then the piece (or the error
-    that stopped it) sent to the parent."""
-    die_with_parent(_WORKER["parent"])  # ends with the parent; the parent stops it on an interrupt
-    job, queue = _WORKER["job"], _WORKER["queue"]
-    try:
-        with _deadline(deadline):
-            piece = job.piece(
-                a,
-                b,
-                w,
-                lambda f: queue.put(("progress", index, f)),
-                lambda j, o: queue.put(("point", index, j, o)),
+class _Relay:
+    """The parent's side of :func:`_parallel`: the pieces as they come back, their progress summed
+    over the range and their orbits passed on in branch order (those of a piece held until every
+    piece before it is done)."""
+
+    def __init__(self, cuts, lo: float, hi: float, progress, on_point, pool: ProcessPool):
+        self.cuts, self.lo, self.hi = cuts, lo, hi
+        self.progress, self.on_point, self.pool = progress, on_point, pool
+        self.pieces: list[Piece | None] = [None] * len(cuts)
+        self.held: list[list] = [[] for _ in cuts]  # orbits of pieces whose predecessors are not done
+        self.frac = [0.0] * len(cuts)
+        self.pids: dict[int, int] = {}  # piece -> pid of the worker computing it
+        self.next = 0  # the first piece not passed on completely
+        self.offset = 0  # branches of the pieces before it
+
+    def message(self, msg) -> None:
+        kind, i = msg[0], msg[1]
+        if kind == "start":
+            self.pids[i] = msg[2]
+        elif kind == "progress":
+            self.frac[i] = msg[2]
+            if self.progress is not None:
+                covered = sum(f * (b - a) for f, (a, b, _) in zip(self.frac, self.cuts, strict=True))
+                self.progress(covered / (self.hi - self.lo))
+        elif self.on_point is not None:  # "point"
+            self.held[i].append((msg[2], msg[3]))
+        self._pass_on()
+
+    def done(self, i: int, piece: Piece) -> None:
+        self.pieces[i] = piece
+        self._pass_on()
+
+    def failed(self, i: int, exc: Exception) -> None:
+        if not isinstance(exc, BrokenProcessPool):
+            raise WorkerError(
+                f"frequency response: the worker of piece {i} failed: {type(exc).__name__}: {exc}"
             )
-        queue.put(("done", index, piece))
-    except BaseException as exc:  # noqa: BLE001 - sent to the parent, which raises it
-        queue.put(("error", index, f"{type(exc).__name__}: {exc}"))
+        codes = self.pool.exit_codes(wait=2.0)  # the worker that died, not those the pool ended after it
+        died = [k for k, pid in self.pids.items() if codes.get(pid, -signal.SIGTERM) != -signal.SIGTERM]
+        k = died[0] if died else i
+        code = codes.get(self.pids.get(k, -1), "unknown")
+        raise WorkerError(
+            f"frequency response: the worker of piece {k} ended without a result (exit code {code})"
+        )
+
+    def _pass_on(self) -> None:
+        """The orbits of the pieces whose predecessors are done, in branch order."""
+        while self.next < len(self.cuts):
+            if self.on_point is not None:
+                for j, o in self.held[self.next]:
+                    self.on_point(self.offset + j, o)
+            self.held[self.next] = []
+            if self.pieces[self.next] is None:
+                break
+            self.offset += len(self.pieces[self.next].branches)
+            self.next += 1
 
 
 def _parallel(
     job: _PieceJob, cuts, workers: int, lo: float, hi: float, progress, on_point, while_computing=None
 ) -> list[Piece]:
-    """The pieces computed by up to ``workers`` forked processes at once (one process per piece);
-    progress and orbits relayed here; ``while_computing()`` once the last worker has started. On
-    an interrupt or an error every worker is stopped."""
-    ctx = multiprocessing.get_context("fork")
-    queue = ctx.SimpleQueue()
-    shared(job.system)  # the workers' results refer to it
-    _WORKER.update(job=job, queue=queue, parent=os.getpid())
-    pieces: list[Piece | None] = [None] * len(cuts)
-    held: list[list] = [[] for _ in cuts]  # orbits of pieces whose predecessors are not done
-    frac = [0.0] * len(cuts)
-    nxt = 0  # the first piece not passed on completely
-    offset = 0  # branches of the pieces before it
-    running: dict[int, multiprocessing.process.BaseProcess] = {}
-    todo = list(range(len(cuts)))
+    """The pieces computed on a pool of ``workers`` forked processes
+    (:func:`hybrid.core.workers.run_calls`); progress and orbits relayed here;
+    ``while_computing()`` once the workers have started. On an interrupt or an error every worker
+    is stopped."""
+    shared(job.system)  # the job and the workers' results refer to it
     deadline = current_deadline()
-
-    def handle(msg) -> None:
-        nonlocal nxt, offset
-        kind, i = msg[0], msg[1]
-        if kind == "progress":
-            frac[i] = msg[2]
-            if progress is not None:
-                progress(sum(f * (b - a) for f, (a, b, _) in zip(frac, cuts, strict=True)) / (hi - lo))
-        elif kind == "point":
-            if on_point is not None:
-                held[i].append((msg[2], msg[3]))
-        elif kind == "done":
-            pieces[i] = msg[2]
-            running.pop(i).join()
-        else:
-            raise WorkerError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
-        while nxt < len(cuts):  # orbits of the pieces whose predecessors are done, in branch order
-            if on_point is not None:
-                for j, o in held[nxt]:
-                    on_point(offset + j, o)
-            held[nxt] = []
-            if pieces[nxt] is None:
-                break
-            offset += len(pieces[nxt].branches)
-            nxt += 1
-
-    try:
-        while todo or running:
-            while todo and len(running) < workers:
-                i = todo.pop(0)
-                a, b, w = cuts[i]
-                p = ctx.Process(target=_worker_main, args=(i, a, b, w, deadline), daemon=True)
-                p.start()
-                running[i] = p
-                if not todo and while_computing is not None:
-                    while_computing()  # no fork after this: the caller may start threads
-                    while_computing = None
-            if queue._reader.poll(0.05):  # (SimpleQueue's pipe: a timeout, unlike get())
-                handle(queue.get())
-            else:
-                dead = [i for i, p in running.items() if p.exitcode is not None]
-                if dead and not queue._reader.poll(0.1):
-                    i = dead[0]
-                    raise WorkerError(
-                        f"frequency response: the worker of piece {i} ended without a result "
-                        f"(exit code {running[i].exitcode})"
-                    )
-    finally:
-        for p in running.values():  # an interrupt here, or an error: no worker is left running
-            p.terminate()
-        for p in running.values():
-            p.join(5.0)
-        _WORKER.clear()
-    return pieces
+    calls = [(job, i, a, b, w, deadline) for i, (a, b, w) in enumerate(cuts)]
+    with ProcessPool(workers) as pool:
+        relay = _Relay(cuts, lo, hi, progress, on_point, pool)
+        run_calls(
+            pool,
+            _piece_in_worker,
+            calls,
+            on_result=relay.done,
+            on_error=relay.failed,
+            on_message=relay.message,
+            started=while_computing,
+        )
+    return relay.pieces

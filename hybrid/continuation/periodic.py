@@ -16,7 +16,7 @@ from ..core.options import ShootingOptions, reject_keywords
 from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
 from ..orbits.autonomous import autonomous_orbit
-from ..orbits.orbit import PeriodicOrbit
+from ..orbits.orbit import ORBIT_OPTIONS, PeriodicOrbit, with_options
 from ..orbits.shooting import shoot_orbit
 from .coldstart import find_by_continuation
 
@@ -93,8 +93,9 @@ def periodic_orbit(
         if isinstance(settings, ShootingOptions) and settings.transient_periods < 1:
             settings = replace(settings, transient_periods=1)
         return autonomous_orbit(system, params, x0, mode0, options=options, settings=settings)
+    options = ORBIT_OPTIONS if options is None else options  # (what shoot_orbit takes for None)
     orbit = shoot_orbit(system, params, x0, mode0, t0=t0, options=options, settings=settings)
-    if orbit.converged or settings.transient_periods == 0 or deadline_passed():
-        return orbit
-    # Newton from the transient failed: a route that cannot wander.
-    return find_by_continuation(system, params, orbit, options=options, settings=settings)
+    if not (orbit.converged or settings.transient_periods == 0 or deadline_passed()):
+        # Newton from the transient failed: a route that cannot wander.
+        orbit = find_by_continuation(system, params, orbit, options=options, settings=settings)
+    return with_options(orbit, options, settings)

@@ -135,7 +135,7 @@ def _switch_orbits(branch: Branch, sp, p_range, ds, options, settings, progress)
     out = []
     what = "the doubled branch" if doubling else "the crossing branch"
     for sign in (1.0,) if doubling else (1.0, -1.0):
-        new = Branch("forced-orbits", system, dict(orbit.params), par)
+        new = Branch("forced-orbits", system, dict(orbit.params), par, options=options, settings=settings)
         pt0.tangent = sign * t_new
         try:
             first = c.correct(pt0, step, samples)

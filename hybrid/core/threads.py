@@ -27,7 +27,7 @@ from typing import TypeVar
 
 from .errors import InputError
 
-__all__ = ["blas_threads", "with_blas_threads", "BLAS_THREADS_ENV"]
+__all__ = ["blas_threads", "with_blas_threads", "new_process", "BLAS_THREADS_ENV"]
 
 #: Environment variable: BLAS threads while the engine computes (default 1; 0: not limited).
 BLAS_THREADS_ENV = "HYBRID_BLAS_THREADS"
@@ -99,3 +99,10 @@ def with_blas_threads(fn: F) -> F:
             return fn(*args, **kwargs)
 
     return wrapper  # type: ignore[return-value]
+
+
+def new_process() -> None:
+    """In a process just forked (a pool's worker): forget the limits this thread was inside in the
+    parent, so that the next :func:`blas_threads` limits every BLAS library loaded here (one
+    loaded after the fork included) rather than nest in the parent's block."""
+    _state.depth = 0

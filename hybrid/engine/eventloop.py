@@ -704,6 +704,7 @@ class Run:
             kept_from=max(self.rec.cutoff, self.t0) if streamed else None,
             kept_from_mode=(self.rec.mode_after_dropped or start_mode) if streamed else None,
             reason=reason,
+            options=self.opt,
         )
         if throw and status < 0:
             raise SimulationError(message)

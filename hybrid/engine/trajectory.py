@@ -8,6 +8,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.plain import options_text
+from ..integrators.options import SolverOptions
+
 __all__ = ["Status", "TransitionRecord", "Trajectory", "switch_groups"]
 
 
@@ -141,6 +144,9 @@ class Trajectory:
         Which budget stopped the run (``Status.STEP_LIMIT``: ``"steps"`` or ``"projected"``;
         ``Status.TIME_LIMIT``: ``"time"``), ``""`` otherwise
         (:data:`hybrid.core.status.TRAJECTORY_REASONS`).
+    options : SolverOptions or None
+        The solver options of the run (for :func:`hybrid.simulate`: those given, or
+        ``SolverOptions()`` in their place); with the same start they repeat it.
     """
 
     t: np.ndarray
@@ -168,6 +174,7 @@ class Trajectory:
     kept_from: float | None = None
     kept_from_mode: str | None = None
     reason: str = ""
+    options: SolverOptions | None = None
 
     @property
     def success(self) -> bool:
@@ -211,7 +218,8 @@ class Trajectory:
         return (
             f"Trajectory(status={self.status.name}, success={self.success}, message={self.message!r}, "
             f"t=[{self.t_start:g}, {self.t_final:g}], samples={self.n_samples}, transitions={self.n_transitions}, "
-            f"mode_final={self.mode_final!r}, nfev={self.nfev}, njev={self.njev})"
+            f"mode_final={self.mode_final!r}, nfev={self.nfev}, njev={self.njev}, "
+            f"options={options_text(self.options)})"
         )
 
 

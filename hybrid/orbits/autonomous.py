@@ -46,6 +46,7 @@ from .orbit import (
     check_orbit_inputs,
     failed_orbit,
     mode_fractions,
+    with_options,
 )
 
 __all__ = ["autonomous_orbit", "AutonomousSolver", "TRIVIAL"]
@@ -283,7 +284,6 @@ def autonomous_orbit(
     options = ORBIT_OPTIONS if options is None else options
     settings = ShootingOptions() if settings is None else settings
     check_orbit_inputs(system, options, settings, forced=False)
-    samples_per_period = settings.samples_per_period
     phase = resolve_phase(system, phase)
     mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:
@@ -294,6 +294,14 @@ def autonomous_orbit(
     fm = FlowMap(system, params, options, Tg)
     y = initial_state(system, np.zeros(len(system.variable_names)) if x0 is None else x0, mode0)
     solver = AutonomousSolver(fm, phase, settings.newton.tol, settings.newton.max_iter)
+    return with_options(_solve(fm, solver, phase, y, mode0, Tg, settings), options, settings)
+
+
+def _solve(
+    fm: FlowMap, solver: AutonomousSolver, phase: str, y, mode0: str, Tg: float, settings: ShootingOptions
+) -> PeriodicOrbit:
+    """The orbit of :func:`autonomous_orbit` from its transient (failed: the reason and message)."""
+    samples_per_period = settings.samples_per_period
     try:
         start = initial_guess(fm, phase, y, mode0, Tg, settings.transient_periods)
         if isinstance(start, GuessFailed):

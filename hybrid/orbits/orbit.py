@@ -9,13 +9,14 @@ stability verdict, the energy balance, and the accuracy that the conditioning of
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..core.balance import balance
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.options import ShootingOptions
+from ..core.plain import options_text, plain_data
 from ..core.scalar import bounded_minimum
 from ..core.status import SolveStatus
 from ..engine.trajectory import Trajectory, sampled_trajectory
@@ -24,7 +25,7 @@ from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 
-__all__ = ["stability_text", "PeriodicOrbit", "ORBIT_OPTIONS"]
+__all__ = ["stability_text", "PeriodicOrbit", "ORBIT_OPTIONS", "with_options"]
 
 #: Default tolerances for periodic orbits (tighter than for plain simulation:
 #: the error of a weakly damped orbit is the integration error times cond(I - M)).
@@ -105,6 +106,13 @@ class PeriodicOrbit:
     reason : str
         Why it failed, a code of :data:`hybrid.core.status.SOLVE_REASONS` (``"budget"``,
         ``"grazing"``, ``"not-converged"``, ...); ``""`` if converged.
+    options : SolverOptions or None
+        The solver options it was computed with: those given to :func:`hybrid.periodic_orbit`
+        (or :func:`hybrid.autonomous_orbit`), or :data:`ORBIT_OPTIONS` in their place; with
+        :attr:`settings` and the same guess they repeat it. None for an orbit of a branch (the
+        :class:`hybrid.Branch` holds them).
+    settings : ShootingOptions or None
+        The shooting options it was computed with (likewise).
     """
 
     system: HybridSystem
@@ -134,6 +142,8 @@ class PeriodicOrbit:
     nfev: int = 0
     route: str = "newton"
     reason: str = ""
+    options: SolverOptions | None = None
+    settings: ShootingOptions | None = None
 
     @property
     def converged(self) -> bool:
@@ -193,20 +203,32 @@ class PeriodicOrbit:
             "energy": dict(self.energy),
             "route": self.route,
             "message": self.message,
+            "options": plain_data(self.options),
+            "settings": plain_data(self.settings),
         }
 
     def __repr__(self) -> str:
+        given = [(n, getattr(self, n)) for n in ("options", "settings") if getattr(self, n) is not None]
+        opts = "".join(f", {n}={options_text(v)}" for n, v in given)
         if not self.converged:
             return (
                 f"PeriodicOrbit({self.system.name}, T={self.period:.6g} s, failed ({self.reason}) "
-                f"after {self.iterations} iterations, residual {self.residual:.2g})"
+                f"after {self.iterations} iterations, residual {self.residual:.2g}{opts})"
             )
         mu = ", ".join(f"{abs(z):.6g}" for z in self.floquet_multipliers[:4])
         return (
             f"PeriodicOrbit({self.system.name}, T={self.period:.6g} s, {self.stability}, "
             f"{self.transitions_per_period} switches/period, |multipliers| {mu}, "
-            f"converged, residual {self.residual:.2g})"
+            f"converged, residual {self.residual:.2g}{opts})"
         )
+
+
+def with_options(
+    orbit: PeriodicOrbit, options: SolverOptions | None, settings: ShootingOptions | None
+) -> PeriodicOrbit:
+    """``orbit`` with the options it was computed with recorded (:attr:`PeriodicOrbit.options`,
+    :attr:`PeriodicOrbit.settings`)."""
+    return replace(orbit, options=options, settings=settings)
 
 
 def _refined_extrema(t: np.ndarray, x: np.ndarray) -> tuple[float, float]:

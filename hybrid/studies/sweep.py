@@ -26,7 +26,6 @@ import hashlib
 import json
 import math
 import os
-import queue
 import re
 import socket
 import stat
@@ -48,8 +47,10 @@ from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.files import FolderLock, write_atomic
 from ..core.options import ContinuationOptions
+from ..core.plain import options_text
 from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
+from ..core.workers import run_calls
 from ..engine.io import to_json
 from ..integrators.base import Method
 from ..integrators.options import SolverOptions
@@ -484,6 +485,12 @@ class SweepResult:
         have no file and are computed by a resumed sweep.
     stopped : str
         Why the sweep stopped before its last point (its deadline passed), ``""`` if it did not.
+    options : SolverOptions or None
+        The solver options of every point, as :func:`sweep` was given them (or its default); None
+        for a sweep read back by :func:`load_sweep`, whose manifest holds them as data
+        (``manifest["options"]``).
+    settings : ContinuationOptions or None
+        The continuation options of every point (likewise; ``manifest["settings"]``).
     """
 
     folder: Path
@@ -493,6 +500,8 @@ class SweepResult:
     reused: list = field(default_factory=list)
     lost: list = field(default_factory=list)
     stopped: str = ""
+    options: SolverOptions | None = None
+    settings: ContinuationOptions | None = None
 
     @property
     def axes(self) -> list[Axis]:
@@ -519,7 +528,9 @@ class SweepResult:
         m = self.manifest
         grid = " x ".join(f"{a['name']} ({len(a['values'])})" for a in m["axes"])
         counts = ", ".join(f"{v} {k}" for k, v in self.counts().items() if v)
-        return f"SweepResult({m['model']} over {grid} in {str(self.folder)!r}: {counts})"
+        given = [(n, getattr(self, n)) for n in ("options", "settings") if getattr(self, n) is not None]
+        opts = "; " + ", ".join(f"{n}={options_text(v)}" for n, v in given) if given else ""
+        return f"SweepResult({m['model']} over {grid} in {str(self.folder)!r}: {counts}{opts})"
 
 
 #: Largest manifest read [bytes] (a grid of MAX_POINTS values takes about 3 MB).
@@ -958,6 +969,7 @@ def _run(
     write_atomic(path, to_json(manifest) + "\n")
 
     res = load_sweep(folder)
+    res.options, res.settings = rest[2], rest[3]  # (p_range, coordinate, options, settings, limit)
     res.reused = sorted(res.points)
     todo = [i for i in grid if i not in res.points]
     total = len(grid)
@@ -974,56 +986,56 @@ def _run(
 
     if progress is not None:
         progress(len(res.points) / total)
-    args = (data, digest)
+    calls = [(data, digest, grid[index], *rest) for index in todo]
     if executor is None:
-        deadline = current_deadline()
-        for index in todo:
-            if deadline_passed():
-                res.stopped = _stopped_text(len(todo) - len(res.computed))
-                break
-            result = run_point(*args, grid[index], *rest, deadline=deadline)
-            if deadline_passed() and result["status"] == PointStatus.TIME_LIMIT:
-                res.stopped = _stopped_text(len(todo) - len(res.computed))  # cut by the deadline: not kept
-                break
-            finish(index, result)
-        return res
-    done: queue.Queue = queue.Queue()
-    pending = {}
-    try:
-        for index in todo:
-            fut = executor.submit(run_point, *args, grid[index], *rest)
-            pending[fut] = index
-            fut.add_done_callback(done.put)
-        beat = time.monotonic()
-        while pending:
-            try:
-                fut = done.get(timeout=0.2)
-            except queue.Empty:
-                fut = None
-            if deadline_passed():
-                res.stopped = _stopped_text(len(pending))
-                return res
-            if heartbeat is not None and time.monotonic() - beat >= HEARTBEAT:
-                beat = time.monotonic()
-                heartbeat()
-            if fut is None:
-                continue
-            index = pending.pop(fut, None)
-            if index is None:
-                continue
-            try:
-                result = fut.result()
-            except Exception as exc:  # the executor lost it (a worker died, ...): no file, computed on resume
-                res.lost.append((index, f"{type(exc).__name__}: {exc}"))
-                continue
-            finish(index, result)
-    finally:  # stopped early (a deadline, an interrupt, an error): the points not started are withdrawn
-        for fut in pending:
-            try:
-                fut.cancel()
-            except Exception:  # (an executor already shut down, a cluster gone: nothing left to withdraw)
-                pass
+        _run_here(calls, todo, finish, res)
+    else:
+        _run_on(executor, calls, todo, finish, res, heartbeat)
     return res
+
+
+def _run_here(calls: list, todo: list, finish, res: SweepResult) -> None:
+    """The points ``todo`` computed one after the other in this process (the deadline in force
+    passed on to each); a point cut by the deadline is not kept."""
+    deadline = current_deadline()
+    for index, args in zip(todo, calls, strict=True):
+        if deadline_passed():
+            res.stopped = _stopped_text(len(todo) - len(res.computed))
+            break
+        result = run_point(*args, deadline=deadline)
+        if deadline_passed() and result["status"] == PointStatus.TIME_LIMIT:
+            res.stopped = _stopped_text(len(todo) - len(res.computed))  # cut by the deadline: not kept
+            break
+        finish(index, result)
+
+
+def _run_on(executor, calls: list, todo: list, finish, res: SweepResult, heartbeat) -> None:
+    """The points ``todo`` computed on ``executor`` (:func:`hybrid.core.workers.run_calls`), each
+    written as it comes; a point the executor lost is recorded in ``res.lost``; the deadline in
+    force stops the sweep (the points in progress dropped)."""
+    beat = [time.monotonic()]
+
+    def stop() -> bool:
+        if deadline_passed():
+            return True
+        if heartbeat is not None and time.monotonic() - beat[0] >= HEARTBEAT:
+            beat[0] = time.monotonic()
+            heartbeat()
+        return False
+
+    def lost(k: int, exc: Exception) -> None:  # (a worker died, ...): no file, computed on resume
+        res.lost.append((todo[k], f"{type(exc).__name__}: {exc}"))
+
+    left = run_calls(
+        executor,
+        run_point,
+        calls,
+        on_result=lambda k, result: finish(todo[k], result),
+        on_error=lost,
+        stop=stop,
+    )
+    if left:
+        res.stopped = _stopped_text(len(left))
 
 
 def _stopped_text(left: int) -> str:

@@ -770,7 +770,10 @@ def test_orbit_repr(coulomb_orbit, coulomb):
         system, p, t0=0.0, settings=ShootingOptions(newton=NewtonOptions(max_iter=1), transient_periods=0)
     )
     assert _short(repr(failed)) == (
-        f"PeriodicOrbit(coulomb, T=7.85398 s, failed (unbounded) after 1 iterations, residual {failed.residual:.2g})"
+        f"PeriodicOrbit(coulomb, T=7.85398 s, failed (unbounded) after 1 iterations, residual {failed.residual:.2g}, "
+        # the options it was computed with (issue 29 item 6): ORBIT_OPTIONS in place of None
+        "options=SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)), "
+        "settings=ShootingOptions(newton=NewtonOptions(max_iter=1), transient_periods=0))"
     )
 
 
@@ -780,10 +783,13 @@ def test_branch_repr(three_branches):
     assert text.startswith(
         f"Branch(forced-orbits of coulomb in Omega: {len(forced.points)} points from 0.8 to "
     )
-    assert text.endswith("; completed)")
-    assert (
-        _short(repr(autonomous))
-        == "Branch(autonomous-orbits of belt in v_b: 3 points from 0.5 to 0.56, special: []; completed)"
+    assert text.endswith(
+        "; completed; options=SolverOptions(method=Exact()), settings=ContinuationOptions())"
+    )
+    assert _short(repr(autonomous)) == (
+        "Branch(autonomous-orbits of belt in v_b: 3 points from 0.5 to 0.56, special: []; completed; "
+        "options=SolverOptions(method=IDA(rtol=1e-10, atol=1e-12)), "  # (ORBIT_OPTIONS in place of None)
+        "settings=ContinuationOptions(ds_min=1e-06, ds_max=0.2, max_points=3, samples_per_period=256))"
     )
     sp = equilibria.special[0]
     assert _short(repr(equilibria)) == (
@@ -822,16 +828,19 @@ def test_frequency_response_repr_is_short(coulomb):
     n = sum(len(b.points) for b in fr.branches)
     assert _short(repr(fr)) == (
         f"FrequencyResponse(coulomb in Omega from 0.8 to 0.82: 1 branch, {n} orbits, 0 special points, 0 gaps; "
-        "complete)"
+        "complete; options=SolverOptions(method=Exact()), settings=ContinuationOptions())"
     )
-    assert len(repr(fr)) < 200  # before: the whole model, 3 kB
+    assert len(repr(fr)) < 250  # before: the whole model, 3 kB
 
 
 def test_sweep_result_repr(coulomb, tmp_path):
     system, p = coulomb
     axis = hybrid.linear_axis("F", 0.5, 0.5, 0.1)
     res = hybrid.sweep(system, p, [axis], tmp_path, p_range=(0.8, 0.82), options=EXACT)
-    assert _short(repr(res)) == f"SweepResult(coulomb over F (1) in {str(tmp_path)!r}: 1 bounded)"
+    assert _short(repr(res)) == (
+        f"SweepResult(coulomb over F (1) in {str(tmp_path)!r}: 1 bounded; "
+        "options=SolverOptions(method=Exact()), settings=ContinuationOptions(locate=False))"
+    )
 
 
 def _build_call(text: str, classes: dict):
