@@ -45,7 +45,7 @@ def test_the_diagram_names_every_built_in_subcommand():
 
 
 def test_the_size_rule_holds():
-    m = re.search(r"No module is over (\d+) lines(?: but (.+?))?\.", DOC)
+    m = re.search(r"No module is over (\d+) lines(?: but ([^:]+))?[.:]", DOC)
     assert m, "the size rule is not stated"
     limit = int(m.group(1))
     excepted = set(re.findall(r"`([\w/]+\.py)`", m.group(2) or ""))
