@@ -135,13 +135,10 @@ class Run:
         return s
 
     def noises(self, cm, t: float, y: np.ndarray) -> np.ndarray | None:
-        """The noise level of every guard of ``cm`` at once (see :meth:`noise`), where the mode
-        offers it in one call (a mode of a system with components); else None."""
-        fn = getattr(cm, "guard_noise_scale", None)
-        if fn is None:
-            return None
-        scale = self.atol + self.opt.rtol * np.abs(y)
-        return self.opt.guard_noise * fn(t, y, scale) + 1e-14
+        """The noise level of every guard of ``cm`` at once (see :meth:`noise`: the integrator's
+        model), where the mode offers it in one call (a mode of a system with components); else None."""
+        size = float(np.max(np.abs(y[self.dynamic]))) if self.dynamic.size else 0.0
+        return self.integ.guard_noises(self.opt, self.atol, cm, t, y, size)
 
     def noise(self, cm: CompiledMode, k: int, t: float, y: np.ndarray) -> float:
         grad, ht = cm.guard_gradient(k, t, y)
