@@ -367,7 +367,9 @@ def _curve_summary(fr, coordinate: str) -> dict:
         ],
         "curve": {par: om, "amplitude": amp, "stability": stab, "branch": branch},
     }
-    if amp:
+    if amp and status in (PointStatus.BOUNDED, PointStatus.INCOMPLETE):
+        # (an unbounded response has no peak: the largest orbit computed before a branch stopped,
+        # 11570 m on the tutorial's damper at R = 4 N, is no figure of merit; issue 30)
         i = int(np.argmax(amp))
         out.update(peak=amp[i], peak_at=om[i], peak_stability=stab[i])
     return out
