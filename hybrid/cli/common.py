@@ -15,11 +15,12 @@ import math
 import os
 import sys
 from collections.abc import Iterable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from ..core.errors import InputError, OutputError
 from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text
-from ..core.options import INTEGRATORS, SolverOptions
+from ..core.options import INTEGRATORS, ContinuationOptions, SolverOptions
 from ..engine.simulate import initial_state
 from ..integrators.registry import integrator
 from ..model.plot_hints import plot_hints
@@ -169,6 +170,26 @@ def add_tolerances(p: argparse.ArgumentParser) -> None:
         default=ORBIT_OPTIONS.atol,
         help=f"absolute tolerance (default {ORBIT_OPTIONS.atol:g})",
     )
+
+
+def add_locate_tol(p: argparse.ArgumentParser) -> None:
+    """``--locate-tol``: the accuracy of a located special point (ContinuationOptions.locate_tol)."""
+    p.add_argument(
+        "--locate-tol",
+        type=positive_float,
+        default=None,
+        metavar="TOL",
+        help="accuracy of a located special point, relative to the width of the range (default "
+        f"{ContinuationOptions.locate_tol:g}); a point not located to it is reported `bracketed`",
+    )
+
+
+def with_locate_tol(settings, args):
+    """``settings`` (ContinuationOptions, None for the defaults) with ``--locate-tol`` if given."""
+    tol = getattr(args, "locate_tol", None)
+    if tol is None:
+        return settings
+    return replace(settings if settings is not None else ContinuationOptions(), locate_tol=tol)
 
 
 def add_budget(p: argparse.ArgumentParser) -> None:

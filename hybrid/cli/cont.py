@@ -40,6 +40,7 @@ from .common import (
     UsageError,
     add_budget,
     add_guess_args,
+    add_locate_tol,
     add_model_args,
     announce,
     budget_options,
@@ -49,6 +50,7 @@ from .common import (
     parameters,
     positive_float,
     results,
+    with_locate_tol,
 )
 
 __all__ = ["register", "run"]
@@ -83,6 +85,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--rtol", type=positive_float, default=1e-10, help="relative tolerance (default 1e-10)")
     p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    add_locate_tol(p)
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -155,7 +158,9 @@ def run(args) -> int:
     time_scale(system, params, None)  # a model without a period guess is refused here
     out = output_dir(system, args)
     bar = ProgressBar(f"cont {system.name}", enabled=args.progress)
-    settings = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
+    settings = with_locate_tol(
+        replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0)), args
+    )
     t0 = time.perf_counter()
     rows: list[dict] = []
     summary: dict = {

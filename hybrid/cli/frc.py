@@ -31,6 +31,7 @@ from .common import (
     OUT_HELP,
     UsageError,
     add_budget,
+    add_locate_tol,
     add_model_args,
     add_tolerances,
     announce,
@@ -43,6 +44,7 @@ from .common import (
     positive_float,
     positive_int,
     results,
+    with_locate_tol,
 )
 
 FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
@@ -72,6 +74,7 @@ def register(sub) -> None:
         "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     add_tolerances(p)
+    add_locate_tol(p)
     p.add_argument(
         "--switch",
         type=int,
@@ -353,6 +356,7 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
                 (lo, hi),
                 parameter=par,
                 options=options,
+                settings=with_locate_tol(None, args),
                 progress=bar,
                 on_point=on_point,
                 workers=workers,

@@ -176,7 +176,7 @@ class _Continuer:
         size = max(float(np.max(np.abs(pt.y[d]) / bs)) if d.size else 0.0, 1e-300)
         return np.concatenate([bs * size, [self.sp]])
 
-    def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False, ref=None):
+    def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False, ref=None, isolated: bool = False):
         """Rows of the (scaled) Newton system, and on a family of orbits (a neutral multiplier 1) a
         row that picks the member: the model's gauge, or without one the family's own direction
         (the null vector of ``I - M``) held at its value at ``ref`` (the last point: the member
@@ -187,7 +187,7 @@ class _Continuer:
         """
         Jb, bs = balanced(Jy)  # rank tests in balanced units
         _, sv, vt = np.linalg.svd(Jb)
-        family = force_gauge or is_family(sv)
+        family = force_gauge or (not isolated and is_family(sv))
         A = np.hstack([Jy, Jp[:, None]])
         rhs = -r
         g = self.sh.gauge(y)
@@ -213,6 +213,7 @@ class _Continuer:
         force_gauge: bool = False,
         light: bool = False,
         polish: bool = False,
+        isolated: bool = False,
     ) -> _Point:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
@@ -221,7 +222,11 @@ class _Continuer:
         (e.g. the probes that locate a mode change, of which only one is kept). ``polish``: the
         converged point takes one more Newton step where that decreases the residual (a point
         accepted at ``tol`` may lie 1e-9 off, which moves a grazing by 1e-12 on the absorber: the
-        probes that locate a special point on a noise-free map are polished).
+        probes that locate a special point on a noise-free map are polished). ``isolated``: the orbit
+        is no member of a family whatever the singular values of ``I - M`` say (a branch point's
+        probes: there ``I - M`` and ``[I - M, dP/dp]`` are singular too, and within 1e-8 of Shaw's
+        branch point the family's row pulled each probe towards the last point: the locator
+        stalled near 1e-8; issue 30).
         Damped Newton: an iterate whose residual is larger than the last one's is replaced by a
         shorter step (down to 1/16); if none decreases the residual the step fails (a worse
         iterate is never kept). Converged: residual below ``tol`` and the scaled update below
@@ -310,7 +315,9 @@ class _Continuer:
                     if src is self.sh:
                         raise
                     continue  # (e.g. a grazing switch): the requested map's
-                A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
+                A, rhs, family, gval = self.system_matrix(
+                    y, Jy, Jp, r, d, force_gauge, ref=pt.y, isolated=isolated
+                )
                 w = _row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
                 A, rhs = A * w[:, None], rhs * w
                 X = np.concatenate([y[d], [p]])
