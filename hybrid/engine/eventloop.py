@@ -515,13 +515,16 @@ class Run:
                             solver.armed[k] = True
                             del disarmed[k]
                         elif -disarmed[k] * h > noise[k] and (cm.guards[k].direction in (0, -disarmed[k])):
-                            warnings.warn(
-                                f"guard `{cm.guards[k].name}` of mode `{cm.name}` crossed zero at t~{r.t!r} "
-                                "before it could be armed; the crossing is located on the step's interpolant. "
-                                "Lower `max_step` or `guard_noise` if this matters.",
-                                RuntimeWarning,
-                                stacklevel=2,
-                            )
+                            # (the exact flow's interpolant is the flow: its crossing is located to
+                            # rounding, nothing for the user to do; issue 30)
+                            if not dense:
+                                warnings.warn(
+                                    f"guard `{cm.guards[k].name}` of mode `{cm.name}` crossed zero at t~{r.t!r} "
+                                    "before it could be armed; the crossing is located on the step's interpolant. "
+                                    "Lower `max_step` or `guard_noise` if this matters.",
+                                    RuntimeWarning,
+                                    stacklevel=2,
+                                )
                             missed = k
                             break
                 self.current = (r.t, r.y, mode)

@@ -187,8 +187,9 @@ class ExactModeSolver:
         A = np.abs(C)
         mag = A.sum(axis=1)
         a0 = A[:, 0]
+        back = self._return(C, mag)  # a disarmed guard's crossing after it has left zero
         if np.all((a0 > mag - a0) | ~self.armed):
-            return None  # |p(s)| >= |c_0| - sum_j>0 |c_j| > 0 on [0, 1] for every armed guard
+            return None if back is None else (back[0] * h, back[1])  # (no armed guard can vanish)
         # cannot vanish on [0, 1]: |p| at 17 nodes exceeds what its slope bound allows in between
         near = np.abs(C @ _VANDER.T).min(axis=1) <= (0.5 / (_GRID.size - 1)) * (A @ _DEGREES)
         cand = np.flatnonzero(self.armed & near & (mag > 0.0))
@@ -210,9 +211,46 @@ class ExactModeSolver:
                 if best is None or r < best[0]:
                     best = (r, int(k))
                 break  # crossings come sorted: the first counts
+        if back is not None and (best is None or back[0] < best[0]):
+            best = back
         if best is None:
             return None
         return best[0] * h, best[1]
+
+    #: A disarmed guard has left zero where its value on its safe side exceeds this fraction of its
+    #: polynomial's size on the step (rounding of the polynomial's value is about 1e-16 of it).
+    LEFT_ZERO = 1e-12
+
+    def _return(self, C: np.ndarray, mag: np.ndarray) -> tuple[float, int] | None:
+        """The earliest crossing ``(s / h, guard)`` in its direction of a disarmed guard after it has
+        left zero towards its safe side (by :data:`LEFT_ZERO` of its size), from the exact polynomial
+        on the step, or None.
+
+        The engine disarms a guard that starts at zero and leaves it towards its safe side (a stop
+        guard after a reversal of the slip), and arms it again only at a step's end beyond its noise
+        level; a phase shorter than a step ended within the step, and its crossing was located
+        afterwards on the interpolant with a warning (about 370 on the tutorial's frequency
+        response, issue 30). The exact polynomial finds it as any other crossing.
+        """
+        best = None
+        for k in np.flatnonzero(~self.armed & (self.safe != 0.0) & (mag > 0.0)).tolist():
+            sigma = float(self.safe[k])
+            c = C[k]
+            lift = sigma * c
+            lift[0] -= self.LEFT_ZERO * mag[k]
+            if lift[0] > 0.0:
+                left = 0.0
+            else:
+                ups = self._crossings(lift, 1, float(mag[k]))
+                if not ups:
+                    continue
+                left = ups[0]
+            for r in self._crossings(c, self._direction[k], float(mag[k])):
+                if r > left:
+                    if best is None or r < best[0]:
+                        best = (r, int(k))
+                    break
+        return best
 
     def _guard_coefficients(self, z: np.ndarray) -> np.ndarray:
         """``W_g M^j z / j!`` for every guard ``g`` and ``j <= TAYLOR_DEGREE``, shape (ng, K+1)."""
