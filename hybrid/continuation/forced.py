@@ -29,6 +29,7 @@ import numpy as np
 
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError
+from ..core.notices import collected
 from ..core.options import (
     FIRST_ORBIT_MAX_ITER,
     ContinuationOptions,
@@ -572,6 +573,7 @@ def _growth(o: PeriodicOrbit, first: PeriodicOrbit, floor: dict) -> float:
     return float(np.median(ratios)) if ratios else 0.0
 
 
+@collected
 @with_blas_threads
 def continue_orbits(
     system: HybridSystem,

@@ -23,6 +23,7 @@ from ..core.budget import current_deadline, deadline_passed, limit_text
 from ..core.budget import restore_deadline as _deadline
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
+from ..core.notices import collected
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus, ResponseStatus
 from ..core.threads import with_blas_threads
@@ -269,6 +270,7 @@ def _cuts(lo: float, hi: float, w: np.ndarray) -> list[tuple[float, float, float
     return out
 
 
+@collected
 @with_blas_threads
 def frequency_response(
     system: HybridSystem,

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core.callbacks import Progress
 from ..core.errors import HybridError, InputError, InputTypeError
+from ..core.notices import collected
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus, LocateStatus
 from ..orbits.autonomous import autonomous_orbit
@@ -161,6 +162,7 @@ class _Lost(HybridError, RuntimeError):
     """The point was not found near the prediction."""
 
 
+@collected
 def continue_locus(
     branch: Branch,
     index: int,

@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 from ..core.budget import deadline_passed
+from ..core.notices import collected
 from ..core.options import ShootingOptions, SolverOptions, reject_keywords
 from ..model.system import HybridSystem
 from ..orbits.autonomous import autonomous_orbit
@@ -22,6 +23,7 @@ from .coldstart import find_by_continuation
 __all__ = ["periodic_orbit"]
 
 
+@collected
 def periodic_orbit(
     system: HybridSystem,
     params: Mapping[str, float],

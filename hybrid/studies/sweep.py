@@ -47,6 +47,7 @@ from ..core.budget import current_deadline, deadline_passed, limit_text, restore
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.files import FolderLock, write_atomic
+from ..core.notices import collected
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.status import PointStatus, ResponseStatus
 from ..core.version import __version__
@@ -726,6 +727,7 @@ def _grid_params(system: HybridSystem, params: Mapping[str, float], axes: Sequen
 
 
 # ----------------------------------------------------------------------------------------------
+@collected
 def sweep(
     system: HybridSystem,
     params: Mapping[str, float],
