@@ -226,3 +226,24 @@ def test_cli_locate_tol_sets_the_accuracy_of_frc_cont_and_locus(tmp_path, capsys
             main(argv)
         assert exc.value.code == 2
         assert "--locate-tol" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["absorber", "isolator"])
+def test_band_edges_of_the_dampers_on_the_exact_flow_within_3e12_of_the_closed_form(name):
+    """Issue 30: at the default locate_tol (1e-10 of the range) the isolator's edges lay 1.9e-11 to
+    3.3e-11 from band_edges; the exact flow's search now goes on to its accuracy."""
+    from hybrid.continuation.frc import default_range
+
+    system = hybrid_models.BUILTIN[name]()
+    p = system.preset("standard")
+    fr = hybrid.frequency_response(system, p, default_range(system, p), options=EXACT)
+    rows = [r for r in fr.special_rows if r["kind"] in ("mode-gained", "mode-lost")]
+    assert len(rows) == 4
+    for r in rows:
+        ref = min(
+            band_edges(name, p, r["Omega"] - 0.01, r["Omega"] + 0.01), key=lambda e: abs(e - r["Omega"])
+        )
+        assert abs(r["Omega"] - ref) <= 3e-12, (r["kind"], r["Omega"], ref)
+        assert r["interval_lo"] <= ref <= r["interval_hi"]
+        assert r["status"] == "located"
