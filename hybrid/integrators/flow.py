@@ -36,8 +36,10 @@ EIGEN_COND = 1e4
 
 #: Largest error of ``V exp(L h) V^-1`` against :func:`matrix_exp` for the eigen path of a flow,
 #: relative to each row's ``sum |expm(M h)_ij|`` (componentwise: each state variable to its own
-#: scale, which the balanced condition number does not bound).
-EIGEN_ACCURACY = 1e-12
+#: scale, which the balanced condition number does not bound). The absorber in engineering units
+#: (tests/hybrid/test_units.py) differs from the Pade path by 1.0e-12 to 1.3e-12 (either may hold
+#: that error); the tutorial's stuck mode, which this test is for, by 5.5e-10 to 1.1e-9.
+EIGEN_ACCURACY = 1e-11
 
 
 def _eigen_accurate(M: np.ndarray, V: np.ndarray, lam: np.ndarray, Vinv: np.ndarray) -> bool:
