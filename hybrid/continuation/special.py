@@ -381,7 +381,7 @@ def locate(c, a, b, kind: str, ds: float, settings, fail_types) -> _Located:
     # On the exact flow the search goes on to the integrator's accuracy (cheap, and the tolerance's
     # 1e-10 of the range left the isolator's band edges 1.9e-11 to 3.3e-11 off; issue 30); the
     # status is still judged against the caller's tolerance.
-    search = min(tol_p, EXACT_SEARCH_TOL * c.sp) if c.sh.integrator.exact else tol_p
+    search = min(tol_p, EXACT_SEARCH_TOL * max(abs(a.p), abs(b.p))) if c.sh.integrator.exact else tol_p
     if not settings.locate:
         return _unlocated(c, a, b, kind, ds)
     if kind in SMOOTH:
@@ -422,9 +422,12 @@ def _isolate(pt) -> None:
         pt.orbit = dataclasses.replace(o, family=False, multiplier_kinds=kinds)
 
 
-#: The exact flow's special points are searched down to this fraction of the range (its runs are
-#: right to rounding; the status is judged against ``ContinuationOptions.locate_tol``).
-EXACT_SEARCH_TOL = 1e-13
+#: The exact flow's special points are searched down to this fraction of the parameter's value
+#: (the status is judged against ``ContinuationOptions.locate_tol``). Its phases are resolved to
+#: :data:`EXACT_PHASE_RESOLUTION` of the period: a search down to 1e-13 of the range narrowed Den
+#: Hartog's boundary (range 0.03) to +-1e-14, 3e-14 from the closed form, below what the phases
+#: resolve.
+EXACT_SEARCH_TOL = 1e-12
 
 #: Rounding of a smooth test function on the exact flow, in units of ``eps`` times the largest
 #: multiplier's modulus (its monodromy is right to rounding times the saltations' products).
