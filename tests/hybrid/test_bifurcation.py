@@ -212,10 +212,13 @@ def test_cli_frc_locates_shaws_branch_point_with_default_options(tmp_path):
 @pytest.mark.slow
 def test_cli_locate_tol_sets_the_accuracy_of_frc_cont_and_locus(tmp_path, capsys):
     W = shaw_branch_point((0.46, 0.465))
-    (row,) = _frc_special(tmp_path, "--locate-tol", "1e-3")
+    # on the exact flow the search goes on to its accuracy whatever the tolerance; the status is
+    # judged against it: below the interval's half-width (1.3e-14), the point is only bracketed
+    (row,) = _frc_special(tmp_path, "--locate-tol", "1e-16")
     lo, hi = float(row["interval_lo"]), float(row["interval_hi"])
     assert lo <= W <= hi
-    assert 1e-9 < 0.5 * (hi - lo) <= 1e-3 * 0.08  # relative to the width of the range
+    assert row["status"] == "bracketed"
+    assert 0.5 * (hi - lo) > 1e-16 * 0.08  # relative to the width of the range
     capsys.readouterr()
     # cont and locus take it too (a bad value is refused by name)
     for argv in (
