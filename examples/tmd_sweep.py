@@ -10,7 +10,7 @@ from pathlib import Path
 
 import hybrid
 from hybrid import Exact, SolverOptions, linear_axis
-from hybrid.plot.chart import write_charts
+from hybrid.plot.chart import optimum, write_charts
 
 out = Path("out") / "examples" / "tmd_sweep"
 tmd = hybrid.load_system(Path(__file__).with_name("tmd.toml"))
@@ -25,9 +25,25 @@ res = hybrid.sweep(
     options=SolverOptions(method=Exact()),
     resume=(out / "manifest.json").exists(),
 )
+WHAT = {
+    "bounded": "",
+    "unbounded": "none: the response grows without bound",
+    "incomplete": "at least",  # parts of the range were not computed: a lower bound
+}
 for _, point in sorted(res.points.items()):
-    peak = f"{point['peak']:.6g} m" if point["status"] == "bounded" else "none (grows without bound)"
-    print(f"R = {point['values']['R']:4.1f} N: peak of x1 {peak} ({point['status']})")
+    status = point["status"]
+    if point.get("peak") is not None:
+        peak = f"{WHAT.get(status, '')} {point['peak'] * 1e3:.4g} mm at {point['peak_at']:.2f} rad/s".strip()
+    else:
+        peak = WHAT.get(status) or f"none ({point['message']})"
+    print(f"R = {point['values']['R']:4.1f} N: peak of x1 {peak} ({status})")
+best = optimum(res)
+if best is None:
+    print("best R: none (no point of the grid is bounded)")
+else:
+    print(
+        f"best R: {best['values']['R']:g} N (peak of x1 {best['peak'] * 1e3:.4g} mm at {best['peak_at']:.2f} rad/s)"
+    )
 files, notes = write_charts(res, out)
 for f in files:
     print("wrote", f)

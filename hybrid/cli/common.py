@@ -14,7 +14,7 @@ import argparse
 import errno
 import os
 from collections.abc import Sequence
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 
 from ..core.commands import UsageError as UsageError  # what any subcommand shares, re-exported
@@ -29,6 +29,7 @@ from ..core.commands import results as results
 from ..core.commands import writable_folder as writable_folder
 from ..core.errors import OutputError
 from ..core.files import os_error_text
+from ..core.options import ContinuationOptions
 from ..engine.simulate import initial_state
 from ..integrators.options import SolverOptions
 from ..integrators.registry import METHODS, NAMES
@@ -147,6 +148,26 @@ def add_tolerances(
         "--atol", type=positive_float, default=None, help=f"absolute tolerance of IDA (default {atol:g})"
     )
     p.set_defaults(tolerance_defaults={"rtol": rtol, "atol": atol})
+
+
+def add_locate_tol(p: argparse.ArgumentParser) -> None:
+    """``--locate-tol``: the accuracy of a located special point (ContinuationOptions.locate_tol)."""
+    p.add_argument(
+        "--locate-tol",
+        type=positive_float,
+        default=None,
+        metavar="TOL",
+        help="accuracy of a located special point, relative to the width of the range (default "
+        f"{ContinuationOptions.locate_tol:g}); a point not located to it is reported `bracketed`",
+    )
+
+
+def with_locate_tol(settings, args):
+    """``settings`` (ContinuationOptions, None for the defaults) with ``--locate-tol`` if given."""
+    tol = getattr(args, "locate_tol", None)
+    if tol is None:
+        return settings
+    return replace(settings if settings is not None else ContinuationOptions(), locate_tol=tol)
 
 
 def add_budget(p: argparse.ArgumentParser) -> None:

@@ -40,6 +40,7 @@ from .common import (
     UsageError,
     add_budget,
     add_guess_args,
+    add_locate_tol,
     add_model_args,
     add_tolerances,
     announce,
@@ -49,6 +50,7 @@ from .common import (
     parameters,
     results,
     solver_options,
+    with_locate_tol,
 )
 
 __all__ = ["register", "run"]
@@ -82,6 +84,7 @@ def register(subparsers) -> None:
         "(half peak-to-peak) is plotted (default: the first displacement of the model's [plot])",
     )
     add_tolerances(p, rtol=1e-10, atol=1e-12)
+    add_locate_tol(p)
     p.add_argument("--out", default=None, help="output folder (default out/MODEL)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -136,7 +139,9 @@ def run(args) -> int:
     time_scale(system, params, None)  # a model without a period guess is refused here
     out = output_dir(system, args)
     bar = ProgressBar(f"cont {system.name}", enabled=args.progress)
-    settings = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0))
+    settings = with_locate_tol(
+        replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(hi - lo, 1.0), ds_max=0.05 * max(hi - lo, 1.0)), args
+    )
     t0 = time.perf_counter()
     rows: list[dict] = []
     summary: dict = {

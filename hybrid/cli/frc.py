@@ -32,6 +32,7 @@ from .common import (
     OUT_HELP,
     UsageError,
     add_budget,
+    add_locate_tol,
     add_model_args,
     add_tolerances,
     announce,
@@ -44,6 +45,7 @@ from .common import (
     positive_int,
     results,
     solver_options,
+    with_locate_tol,
 )
 
 FRC_OVERLAY_GROUP = "hybrid.frc_overlays"
@@ -73,6 +75,7 @@ def register(sub) -> None:
         "1.2 x highest natural frequency of the initial mode linearised at rest)",
     )
     add_tolerances(p)
+    add_locate_tol(p)
     p.add_argument(
         "--switch",
         type=int,
@@ -355,6 +358,7 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
                 (lo, hi),
                 parameter=par,
                 options=options,
+                settings=with_locate_tol(None, args),
                 progress=bar,
                 on_point=on_point,
                 workers=workers,

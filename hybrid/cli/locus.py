@@ -36,6 +36,7 @@ from .common import (
     UsageError,
     add_budget,
     add_guess_args,
+    add_locate_tol,
     add_model_args,
     add_tolerances,
     announce,
@@ -49,6 +50,7 @@ from .common import (
     positive_int,
     results,
     solver_options,
+    with_locate_tol,
 )
 
 #: The files ``hybrid locus`` writes in its folder.
@@ -88,6 +90,7 @@ def register(sub) -> None:
     )
     add_guess_args(p)
     add_tolerances(p)
+    add_locate_tol(p)
     p.add_argument(
         "--coordinate", default=None, metavar="NAME", help="variable whose amplitude the branch shows"
     )
@@ -105,7 +108,18 @@ def _branches(system, params, args, options, x0, mode0) -> list:
     """The one-parameter branches whose special points are offered (see the module docstring)."""
     lo, hi = args.range
     if system.period is not None:
-        return [continue_orbits(system, params, args.param, (lo, hi), x0=x0, mode0=mode0, options=options)]
+        return [
+            continue_orbits(
+                system,
+                params,
+                args.param,
+                (lo, hi),
+                x0=x0,
+                mode0=mode0,
+                options=options,
+                settings=with_locate_tol(None, args),
+            )
+        ]
     out = []
     for mode in (m.name for m in system.modes):
         try:
@@ -128,7 +142,7 @@ def _branches(system, params, args, options, x0, mode0) -> list:
                     (min(lo, hi), max(lo, hi)),
                     direction=direction,
                     options=options,
-                    settings=st,
+                    settings=with_locate_tol(st, args),
                 )
             )
     return out
@@ -217,7 +231,7 @@ def run(args) -> int:
                 step=args.step,
                 max_points=args.max_points,
                 options=options,
-                settings=ContinuationOptions() if b.kind == "forced-orbits" else None,
+                settings=with_locate_tol(ContinuationOptions(), args) if b.kind == "forced-orbits" else None,
                 progress=lambda f, done=done: bar(min(1.0, done + f / len(chosen))),
             )
             loci.append(lc)

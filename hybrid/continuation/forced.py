@@ -28,6 +28,7 @@ import numpy as np
 
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError
+from ..core.notices import collected
 from ..core.options import FIRST_ORBIT_MAX_ITER, ContinuationOptions, reject_keywords
 from ..core.threads import with_blas_threads
 from ..engine.simulate import check_time_range, initial_state
@@ -209,7 +210,7 @@ class OrbitContinuer:
         size = max(float(np.max(np.abs(pt.y[d]) / bs)) if d.size else 0.0, 1e-300)
         return np.concatenate([bs * size, [self.sp]])
 
-    def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False, ref=None):
+    def system_matrix(self, y, Jy, Jp, r, d, force_gauge: bool = False, ref=None, isolated: bool = False):
         """Rows of the (scaled) Newton system, and on a family of orbits (a neutral multiplier 1) a
         row that picks the member: the model's gauge, or without one the family's own direction
         (the null vector of ``I - M``) held at its value at ``ref`` (the last point: the member
@@ -220,7 +221,7 @@ class OrbitContinuer:
         """
         Jb, bs = balanced(Jy)  # rank tests in balanced units
         _, sv, vt = np.linalg.svd(Jb)
-        family = force_gauge or is_family(sv)
+        family = force_gauge or (not isolated and is_family(sv))
         A = np.hstack([Jy, Jp[:, None]])
         rhs = -r
         g = self.sh.gauge(y)
@@ -246,6 +247,7 @@ class OrbitContinuer:
         force_gauge: bool = False,
         light: bool = False,
         polish: bool = False,
+        isolated: bool = False,
     ) -> ContinuationPoint:
         """Predict along ``pt.tangent`` by ``ds`` (scaled arclength), correct on the normal hyperplane.
 
@@ -254,7 +256,11 @@ class OrbitContinuer:
         (e.g. the probes that locate a mode change, of which only one is kept). ``polish``: the
         converged point takes one more Newton step where that decreases the residual (a point
         accepted at ``tol`` may lie 1e-9 off, which moves a grazing by 1e-12 on the absorber: the
-        probes that locate a special point on a noise-free map are polished).
+        probes that locate a special point on a noise-free map are polished). ``isolated``: the orbit
+        is no member of a family whatever the singular values of ``I - M`` say (a branch point's
+        probes: there ``I - M`` and ``[I - M, dP/dp]`` are singular too, and within 1e-8 of Shaw's
+        branch point the family's row pulled each probe towards the last point: the locator
+        stalled near 1e-8; issue 30).
         Damped Newton: an iterate whose residual is larger than the last one's is replaced by a
         shorter step (down to 1/16); if none decreases the residual the step fails (a worse
         iterate is never kept). Converged: residual below ``tol`` and the scaled update below
@@ -347,7 +353,9 @@ class OrbitContinuer:
                     if src is self.sh:
                         raise
                     continue  # (e.g. a grazing switch): the requested map's
-                A, rhs, family, gval = self.system_matrix(y, Jy, Jp, r, d, force_gauge, ref=pt.y)
+                A, rhs, family, gval = self.system_matrix(
+                    y, Jy, Jp, r, d, force_gauge, ref=pt.y, isolated=isolated
+                )
                 w = row_weights(D, d.size, A.shape[0])  # the residual rows in balanced units
                 A, rhs = A * w[:, None], rhs * w
                 X = np.concatenate([y[d], [p]])
@@ -584,6 +592,24 @@ def _size(o: PeriodicOrbit) -> float:
     return max((o.amplitude[n] for n in o.state_names if n in o.amplitude), default=0.0)
 
 
+def _growth(o: PeriodicOrbit, first: PeriodicOrbit, floor: dict) -> float:
+    """The median over the state variables of each one's amplitude over its amplitude in ``first``
+    (at least ``floor``, its absolute tolerance): how much the orbit has grown, in no unit.
+
+    :func:`_size` mixes units: on the tutorial's damper with R = 4 N (issue 30) the contact force
+    (4 N, bounded by R) was the first orbit's size, and the displacements grew 5.8e6 times (to
+    11570 m) towards the undamped sliding resonance while the largest amplitude, a velocity in
+    m/s, grew only 1.5e5 times. A median is not moved by one variable that grows from nothing
+    (a symmetric orbit's antisymmetric part after a symmetry-breaking bifurcation)."""
+    ratios = [
+        o.amplitude[n] / max(first.amplitude[n], floor[n])
+        for n in o.state_names
+        if n in o.amplitude and n in first.amplitude
+    ]
+    return float(np.median(ratios)) if ratios else 0.0
+
+
+@collected
 @with_blas_threads
 def continue_orbits(
     system: HybridSystem,
@@ -779,9 +805,9 @@ def follow_branch(
     # Growth is measured from the first orbit's size, or from the absolute tolerance if that is
     # smaller (an orbit at rest, e.g. without forcing, has a size of rounding noise); a method
     # without absolute tolerances (the exact flow) takes SIZE_FLOOR.
-    size0 = max(
-        _size(first), float(np.min(c.sh.method.atol_vector(c.sh.names), initial=np.inf)) or SIZE_FLOOR
-    )
+    atol = c.sh.method.atol_vector(c.sh.names)
+    size0 = max(_size(first), float(np.min(atol, initial=np.inf)) or SIZE_FLOOR)
+    floor = dict(zip(c.sh.names, atol, strict=True))
     ds_cur = st.ds
     rephased = False
     n_points, fails = 1, 0
@@ -813,7 +839,7 @@ def follow_branch(
             return
         fails = 0
         # The branch grows without bound: stop before accepting orbits of any size.
-        if _size(new.orbit) > st.max_growth * size0:
+        if _size(new.orbit) > st.max_growth * size0 or _growth(new.orbit, first, floor) > st.max_growth:
             _unbounded(c, branch, pt, new, "")
             return
         # Leaving a band, the symmetric orbit loses its phases in other modes at once; rounding
@@ -889,7 +915,7 @@ def _unbounded(
     hi = new.p if new is not None else pt.p
     size = _size(new.orbit) if new is not None else math.nan
     desc = f"no bounded periodic orbit beyond {par} = {pt.p:.8g}: the response grows without bound " + (
-        f"(amplitude {size:.3g}, over max_growth = {st.max_growth:g} x the first orbit's)"
+        f"(amplitude {size:.3g}: grown over max_growth = {st.max_growth:g} times the first orbit's)"
         if new is not None
         else f"({why})"
     )

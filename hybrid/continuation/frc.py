@@ -25,6 +25,7 @@ from ..core.budget import current_deadline, deadline_passed, limit_text
 from ..core.budget import restore_deadline as _deadline
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
+from ..core.notices import collected
 from ..core.options import ContinuationOptions, reject_keywords
 from ..core.plain import options_text
 from ..core.status import BranchStatus, ResponseStatus
@@ -282,6 +283,7 @@ def _cuts(lo: float, hi: float, w: np.ndarray) -> list[tuple[float, float, float
     return out
 
 
+@collected
 @with_blas_threads
 def frequency_response(
     system: HybridSystem,

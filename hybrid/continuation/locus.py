@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core.callbacks import Progress
 from ..core.errors import HybridError, InputError, InputTypeError
+from ..core.notices import collected
 from ..core.options import ContinuationOptions, reject_keywords
 from ..core.status import BranchStatus, LocateStatus
 from ..integrators.options import SolverOptions
@@ -162,6 +163,7 @@ class _Lost(HybridError, RuntimeError):
     """The point was not found near the prediction."""
 
 
+@collected
 def continue_locus(
     branch: Branch,
     index: int,

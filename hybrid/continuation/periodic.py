@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 from ..core.budget import deadline_passed
+from ..core.notices import collected
 from ..core.options import ShootingOptions, reject_keywords
 from ..integrators.options import SolverOptions
 from ..model.system import HybridSystem
@@ -23,6 +24,7 @@ from .coldstart import find_by_continuation
 __all__ = ["periodic_orbit"]
 
 
+@collected
 def periodic_orbit(
     system: HybridSystem,
     params: Mapping[str, float],

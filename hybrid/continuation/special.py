@@ -50,6 +50,7 @@ tolerance (``ContinuationOptions.locate_tol`` times the range), else ``bracketed
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -216,12 +217,16 @@ def phases(o) -> list[tuple[str, float]]:
     return [(m, d / span) for d, m in ivs]
 
 
-def tests(o) -> tuple[float, float, float] | None:
+def tests(o, isolated: bool = False) -> tuple[float, float, float] | None:
     """``(det(M + I), prod over pairs (mu_i mu_j - 1), det(M - I))`` on the Floquet multipliers
-    (real parts); None on a family (a neutral multiplier 1)."""
-    if o.family:
+    (real parts); None on a family (a neutral multiplier 1), unless ``isolated`` (a branch point's
+    probe, whose multiplier 1 is the branch point's, not a family's)."""
+    if o.family and not isolated:
         return None
-    lam = o.floquet_multipliers
+    # (a branch point's neutral multiplier is its own: kept)
+    lam = o.multipliers[np.array([k != "structural" for k in o.multiplier_kinds], dtype=bool)]
+    if not isolated:
+        lam = o.floquet_multipliers
     pd = float(np.real(np.prod(lam + 1.0)))
     bp = float(np.real(np.prod(lam - 1.0)))
     ns = 1.0 + 0j
@@ -311,7 +316,7 @@ def _value(kind: str, pt, a) -> float:
     """Smooth test function of ``kind`` at ``pt`` (sign relative to ``a`` is not applied)."""
     if kind == "fold":
         return float(pt.tangent[-1]) if pt.tangent.size == a.tangent.size else math.nan
-    t = tests(pt.orbit)
+    t = tests(pt.orbit, isolated=kind == "branch-point")
     if t is None:
         return math.nan
     return t[SMOOTH[kind]]
@@ -373,11 +378,15 @@ def locate(c, a, b, kind: str, ds: float, settings, fail_types) -> _Located:
     ``c.correct(a, s)`` gives the point at arclength ``s`` of the step from ``a``.
     """
     tol_p = settings.locate_tol * c.sp
+    # On the exact flow the search goes on to the integrator's accuracy (cheap, and the tolerance's
+    # 1e-10 of the range left the isolator's band edges 1.9e-11 to 3.3e-11 off; issue 30); the
+    # status is still judged against the caller's tolerance.
+    search = min(tol_p, EXACT_SEARCH_TOL * max(abs(a.p), abs(b.p))) if c.sh.method.flows_exact else tol_p
     if not settings.locate:
         return _unlocated(c, a, b, kind, ds)
     if kind in SMOOTH:
-        return _illinois(c, a, b, kind, ds, settings, tol_p, fail_types)
-    return _mode_change(c, a, b, ds, settings, tol_p, fail_types)
+        return _illinois(c, a, b, kind, ds, settings, tol_p, fail_types, search)
+    return _mode_change(c, a, b, ds, settings, tol_p, fail_types, search)
 
 
 def _unlocated(c, a, b, kind: str, ds: float) -> _Located:
@@ -404,7 +413,44 @@ def _unlocated(c, a, b, kind: str, ds: float) -> _Located:
     )
 
 
-def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
+def _isolate(pt) -> None:
+    """A branch point's orbit is no member of a family: its multiplier 1 (classified ``neutral``
+    by the singular value of ``I - M``) is a Floquet multiplier (issue 30)."""
+    o = pt.orbit
+    if o is not None and o.family:
+        kinds = tuple("floquet" if k == "neutral" else k for k in o.multiplier_kinds)
+        pt.orbit = dataclasses.replace(o, family=False, multiplier_kinds=kinds)
+
+
+#: The exact flow's special points are searched down to this fraction of the parameter's value
+#: (the status is judged against ``ContinuationOptions.locate_tol``). Its phases are resolved to
+#: :data:`EXACT_PHASE_RESOLUTION` of the period: a search down to 1e-13 of the range narrowed Den
+#: Hartog's boundary (range 0.03) to +-1e-14, 3e-14 from the closed form, below what the phases
+#: resolve.
+EXACT_SEARCH_TOL = 1e-12
+
+#: Rounding of a smooth test function on the exact flow, in units of ``eps`` times the largest
+#: multiplier's modulus (its monodromy is right to rounding times the saltations' products).
+TEST_ROUNDING = 64.0
+
+
+def _test_margin(kind: str, q_lo, q_hi, a, p: float) -> float:
+    """How far [parameter units] the rounding of the test function of ``kind`` may move its zero
+    between the probes ``q_lo`` and ``q_hi`` on the exact flow: :data:`TEST_ROUNDING` ``eps
+    max |mu|`` over the test function's slope between them, plus ``4 eps |p|``. (Shaw's branch
+    point located to 1e-14 missed the closed form by 5e-16 without it; issue 30.)"""
+    eps = float(np.finfo(float).eps)
+    g1, g2 = _value(kind, q_lo, a), _value(kind, q_hi, a)
+    dp = abs(q_hi.p - q_lo.p)
+    slope = abs(g2 - g1) / dp if dp > 0 and math.isfinite(g1) and math.isfinite(g2) else 0.0
+    size = max(float(np.max(np.abs(q.orbit.multipliers), initial=1.0)) for q in (q_lo, q_hi))
+    if not slope > 0:
+        return EXACT_ROUNDING_FALLBACK * abs(p)
+    return TEST_ROUNDING * eps * size / slope + 4.0 * eps * abs(p)
+
+
+def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types, search: float | None = None) -> _Located:
+    search = tol_p if search is None else search
     s_lo, s_hi = 0.0, ds
     g_lo, g_hi = _value(kind, a, a), _value(kind, b, a)
     q_lo, q_hi = a, b  # the points at the bracket's ends
@@ -437,6 +483,11 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             if rounded:  # what rounding leaves unresolved on the exact flow
                 m = rounding_margin((q_lo, q_hi), p)
                 iv = (iv[0] - m, iv[1] + m)
+            elif kind == "branch-point" and c.sh.method.flows_exact:
+                m = _test_margin(kind, q_lo, q_hi, a, p)
+                iv = (iv[0] - m, iv[1] + m)
+        if kind == "branch-point" and best is not None:
+            _isolate(best)
         out = _Located(best, "bracketed", p, iv, status_note, tol=tol_p if located else None)
         return out
 
@@ -454,7 +505,11 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             try:
                 if kind == "branch-point":
                     q = c.correct(
-                        c.between(q_lo, q_hi, (x - s_lo) / w), 0.0, samples, polish=c.sh.method.flows_exact
+                        c.between(q_lo, q_hi, (x - s_lo) / w),
+                        0.0,
+                        samples,
+                        polish=c.sh.method.flows_exact,
+                        isolated=True,
                     )
                 else:
                     q = c.correct(a, x, samples, polish=c.sh.method.flows_exact)
@@ -463,6 +518,14 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
                 continue
             if kind == "branch-point" and not _on_branch(c, (s_lo, q_lo), (s_hi, q_hi), x, q):
                 why = f"the corrector found a point of another branch at {q.p:.10g}"
+                continue
+            if kind == "branch-point" and signature(q.view()) not in (
+                signature(q_lo.view()),
+                signature(q_hi.view()),
+            ):
+                # (within 3e-9 of Shaw's branch point a probe converged to an orbit with a stick
+                # phase, whose det(M - I) is -1: the regula falsi crept towards it; issue 30)
+                why = f"the corrector found an orbit with other modes at {q.p:.10g}"
                 continue
             pt, s = q, x
             break
@@ -504,7 +567,7 @@ def _illinois(c, a, b, kind, ds, settings, tol_p, fail_types) -> _Located:
             err = abs(iv[1] - iv[0])
             settled = p_prev is not None and abs(s - s_prev) <= FOLD_ARCLENGTH_TOL * ds
         s_prev = s
-        if (err <= tol_p and settled) or s_hi - s_lo <= 1e-14 * ds:
+        if (err <= search and settled) or s_hi - s_lo <= 1e-14 * ds:
             return result("", located=True)
     return result("not located to the tolerance")
 
@@ -798,7 +861,7 @@ RATED = 8
 PHASE_NOISE_FLOOR = 10.0
 
 
-def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
+def _mode_change(c, a, b, ds, settings, tol_p, fail_types, search: float | None = None) -> _Located:
     """Bisection of the change of signature between ``a`` and ``b``, each probe aimed at either side
     of the zero of the vanishing phase's duration extrapolated from the probes that have it (its
     power law estimated from the last three); the interval from :func:`_phase_interval`, and the
@@ -817,7 +880,8 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     toward = 1.0 if o[0] > w[0] else -1.0  # in arclength, from the side with the phase
     probes = [(w[0], w[1].p, rule.measure(w[1].view()), w[1])] if rule.measure else []
     slope = (b.p - a.p) / ds if ds > 0 else 0.0
-    eps = 0.1 * tol_p / max(abs(slope), 1e-300)  # a tenth of the tolerance, in arclength
+    search = tol_p if search is None else search
+    eps = 0.1 * search / max(abs(slope), 1e-300)  # a tenth of the tolerance, in arclength
     exact = c.sh.method.flows_exact
     floor = 0.0 if exact else NOISY_FLOOR * c.sh.noise_rtol * max(abs(a.p), abs(b.p))
     note = ""
@@ -854,7 +918,7 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types) -> _Located:
     lo, hi, why = _phase_interval(c, rule, w, o, probes)
     stalls = 0  # on a noisy map below its floor: iterations that did not narrow the interval
     for _ in range(settings.locate_max_iter):
-        if 0.5 * (hi - lo) <= tol_p or abs(o[0] - w[0]) <= 1e-14 * ds:
+        if 0.5 * (hi - lo) <= search or abs(o[0] - w[0]) <= 1e-14 * ds:
             break
         at_floor = floor > tol_p and abs(o[1].p - w[1].p) <= floor
         if at_floor and (stalls >= 2 or not rule.measure):

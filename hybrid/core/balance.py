@@ -23,6 +23,13 @@ def balance(A: np.ndarray, sweeps: int = 100) -> np.ndarray:
     n = A.shape[0]
     B = np.abs(np.asarray(A, dtype=float))
     np.fill_diagonal(B, 0.0)
+    # Entries at the rounding of the matrix's largest carry no coupling: a column that holds only
+    # such residues is zero (issue 30: I - M of a stuck contact has a column of 1e-15 in the
+    # offset it does not depend on, and balancing it scaled that coordinate by 8.6e9, which made
+    # the truncated pseudo-inverse of Newton's method drop the whole correction)
+    top = float(B.max()) if B.size else 0.0
+    if math.isfinite(top):
+        B[B <= 1e-14 * top] = 0.0
     s = np.ones(n)
     for _ in range(sweeps):
         changed = False

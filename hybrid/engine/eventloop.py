@@ -134,8 +134,8 @@ class Run:
         return s
 
     def noises(self, cm, t: float, y: np.ndarray) -> np.ndarray | None:
-        """The noise level of every guard of ``cm`` at once (see :meth:`noise`), where the mode
-        offers it in one call (a mode of a system with components); else None."""
+        """The noise level of every guard of ``cm`` at once (see :meth:`noise`: the method's
+        model), where the mode offers it in one call (a mode of a system with components); else None."""
         size = float(np.max(np.abs(y[self.dynamic]))) if self.dynamic.size else 0.0
         return self.integ.guard_bands(cm, self.atol, t, y, size)
 
@@ -514,13 +514,16 @@ class Run:
                             solver.armed[k] = True
                             del disarmed[k]
                         elif -disarmed[k] * h > noise[k] and (cm.guards[k].direction in (0, -disarmed[k])):
-                            warnings.warn(
-                                f"guard `{cm.guards[k].name}` of mode `{cm.name}` crossed zero at t~{r.t!r} "
-                                "before it could be armed; the crossing is located on the step's interpolant. "
-                                "Lower `max_step` or `guard_noise` if this matters.",
-                                RuntimeWarning,
-                                stacklevel=2,
-                            )
+                            # (the exact flow's interpolant is the flow: its crossing is located to
+                            # rounding, nothing for the user to do; issue 30)
+                            if not dense:
+                                warnings.warn(
+                                    f"guard `{cm.guards[k].name}` of mode `{cm.name}` crossed zero at t~{r.t!r} "
+                                    "before it could be armed; the crossing is located on the step's interpolant. "
+                                    "Lower `max_step` or `guard_noise` if this matters.",
+                                    RuntimeWarning,
+                                    stacklevel=2,
+                                )
                             missed = k
                             break
                 self.current = (r.t, r.y, mode)

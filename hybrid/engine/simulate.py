@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.callbacks import Progress
 from ..core.errors import AlgebraicSolveError, InputError, InputTypeError
+from ..core.notices import collected
 from ..core.threads import with_blas_threads
 from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem
@@ -63,6 +64,7 @@ def initial_state(system: HybridSystem, x0, mode: str | None = None) -> np.ndarr
     return y
 
 
+@collected
 def simulate(
     system: HybridSystem,
     params: Mapping[str, float],

@@ -167,8 +167,9 @@ class ExactModeSolver:
         A = np.abs(C)
         mag = A.sum(axis=1)
         a0 = A[:, 0]
+        back = self._return(C, mag)  # a disarmed guard's crossing after it has left zero
         if np.all((a0 > mag - a0) | ~self.armed):
-            return None  # |p(s)| >= |c_0| - sum_j>0 |c_j| > 0 on [0, 1] for every armed guard
+            return None if back is None else (back[0] * h, back[1])  # (no armed guard can vanish)
         # cannot vanish on [0, 1]: |p| at 17 nodes exceeds what its slope bound allows in between
         near = np.abs(C @ _VANDER.T).min(axis=1) <= (0.5 / (_GRID.size - 1)) * (A @ _DEGREES)
         cand = np.flatnonzero(self.armed & near & (mag > 0.0))
@@ -190,9 +191,46 @@ class ExactModeSolver:
                 if best is None or r < best[0]:
                     best = (r, int(k))
                 break  # crossings come sorted: the first counts
+        if back is not None and (best is None or back[0] < best[0]):
+            best = back
         if best is None:
             return None
         return best[0] * h, best[1]
+
+    #: A disarmed guard has left zero where its value on its safe side exceeds this fraction of its
+    #: polynomial's size on the step (rounding of the polynomial's value is about 1e-16 of it).
+    LEFT_ZERO = 1e-12
+
+    def _return(self, C: np.ndarray, mag: np.ndarray) -> tuple[float, int] | None:
+        """The earliest crossing ``(s / h, guard)`` in its direction of a disarmed guard after it has
+        left zero towards its safe side (by :data:`LEFT_ZERO` of its size), from the exact polynomial
+        on the step, or None.
+
+        The engine disarms a guard that starts at zero and leaves it towards its safe side (a stop
+        guard after a reversal of the slip), and arms it again only at a step's end beyond its noise
+        level; a phase shorter than a step ended within the step, and its crossing was located
+        afterwards on the interpolant with a warning (about 370 on the tutorial's frequency
+        response, issue 30). The exact polynomial finds it as any other crossing.
+        """
+        best = None
+        for k in np.flatnonzero(~self.armed & (self.safe != 0.0) & (mag > 0.0)).tolist():
+            sigma = float(self.safe[k])
+            c = C[k]
+            lift = sigma * c
+            lift[0] -= self.LEFT_ZERO * mag[k]
+            if lift[0] > 0.0:
+                left = 0.0
+            else:
+                ups = self._crossings(lift, 1, float(mag[k]))
+                if not ups:
+                    continue
+                left = ups[0]
+            for r in self._crossings(c, self._direction[k], float(mag[k])):
+                if r > left:
+                    if best is None or r < best[0]:
+                        best = (r, int(k))
+                    break
+        return best
 
     def _guard_coefficients(self, z: np.ndarray) -> np.ndarray:
         """``W_g M^j z / j!`` for every guard ``g`` and ``j <= TAYLOR_DEGREE``, shape (ng, K+1)."""
@@ -673,26 +711,20 @@ class Exact(Method):
     """The exact flow of affine modes: matrix exponentials and exact guard roots, for models whose
     modes and guards are affine in the state with time only in sin/cos of one forcing frequency.
 
-    It has no tolerances: its runs are exact to rounding, and so is the noise band of a guard of
-    a mode-level model. The guards of a system with components (network and ``sign()`` models)
-    still take a tolerance band, ``band_rtol`` and ``band_atol`` (see :meth:`guard_bands`).
+    It has no tolerances: its runs are exact to rounding, and so is the noise band of its guards,
+    whatever the model's form (mode-level, network file, ``sign()``: issue 30).
 
     Attributes
     ----------
     guard_noise : float
         Safety factor on the rounding of a guard's value (:meth:`guard_band`): within it a guard
         counts as zero at a switch and stays disarmed until it has left it.
-    band_rtol, band_atol : float
-        The band ``guard_noise x sum |dh/dy| (band_atol + band_rtol |y|)`` of the guards of a
-        system with components, within which a guard counts as zero at a switch (the switches of
-        several components at one instant are decided together). Default 1e-10 and 1e-12, the
-        tolerances the command line gave it before methods were objects (issue 29).
 
     Examples
     --------
     >>> from hybrid import Exact, SolverOptions
     >>> SolverOptions(method=Exact()).method
-    Exact(guard_noise=10.0, band_rtol=1e-10, band_atol=1e-12)
+    Exact(guard_noise=10.0)
     >>> Exact(rtol=1e-9)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -700,8 +732,6 @@ class Exact(Method):
     """
 
     guard_noise: float = 10.0
-    band_rtol: float = 1e-10
-    band_atol: float = 1e-12
 
     name = "exact"
     flows_exact = True
@@ -712,9 +742,7 @@ class Exact(Method):
     #: Relative accuracy of one run of a map: rounding.
     NOISE_RTOL = 1e-15
 
-    def __init__(
-        self, *, guard_noise: float = 10.0, band_rtol: float = 1e-10, band_atol: float = 1e-12, **unexpected
-    ):
+    def __init__(self, *, guard_noise: float = 10.0, **unexpected):
         if unexpected:
             tol = [k for k in unexpected if k in ("rtol", "atol", "atol_default", "max_num_steps")]
             raise InputTypeError(
@@ -723,12 +751,11 @@ class Exact(Method):
                     "does not apply: the exact flow has no tolerances (its runs are exact to rounding); "
                     "leave it out, or use IDA(rtol=..., atol=...) for a method with tolerances"
                     if tol
-                    else "is not a setting of Exact (its settings: guard_noise, band_rtol, band_atol)"
+                    else "is not a setting of Exact (its one setting: guard_noise)"
                 )
             )
-        for k, v in (("guard_noise", guard_noise), ("band_rtol", band_rtol), ("band_atol", band_atol)):
-            check_positive("Exact", k, v)
-            object.__setattr__(self, k, v)
+        check_positive("Exact", "guard_noise", guard_noise)
+        object.__setattr__(self, "guard_noise", guard_noise)
 
     def check(self, cs: CompiledSystem) -> None:
         """Refuse a compiled system whose modes are not all affine (:func:`exact_flows`).
@@ -761,8 +788,8 @@ class Exact(Method):
         y: np.ndarray,
         size: float,
     ) -> float:
-        """The rounding of a guard's value, not a tolerances' band: ``guard_noise x ROUNDING x
-        (sum |dh/dy| (|y| + size) + |dh/dt| |t|)`` (``atol`` does not enter).
+        """The rounding of a guard's value, not a tolerances' band: ``guard_noise x eps x
+        (sum |dh/dy| (|y| + size) + |dh/dt| |t|)`` with ``eps`` of :meth:`rounding`.
 
         The exact flow's state is right to the rounding of the matrix exponentials (relative to
         the state's size, ``size``) and the time to its own rounding; a band as wide as the
@@ -770,17 +797,27 @@ class Exact(Method):
         1e-8 s (Den Hartog's oscillator just inside its non-stop boundary), which this flow
         resolves (a phase of 1e-13 s: ``tests/hybrid/test_bifurcation.py``).
         """
-        scale = self.ROUNDING * (np.abs(y) + size)
-        return self.guard_noise * (float(np.abs(grad) @ scale) + abs(ht) * self.ROUNDING * abs(t)) + 1e-300
+        eps = self.rounding(y)
+        scale = eps * (np.abs(y) + size)
+        return self.guard_noise * (float(np.abs(grad) @ scale) + abs(ht) * eps * abs(t)) + 1e-300
+
+    def rounding(self, y: np.ndarray) -> float:
+        """Relative rounding of a state of ``y.size`` variables from the exact flow:
+        ``ROUNDING x sqrt(n)`` (each variable a sum over the state of products of the flow's
+        matrices: the rounding of a sum of ``n`` terms grows like ``sqrt(n)``; a ring of 8 equal
+        blocks, whose copies differ only by rounding, drifted apart by 1.3e-14 in a velocity)."""
+        return self.ROUNDING * max(1.0, float(np.sqrt(np.size(y))))
 
     def guard_bands(self, cm, atol: np.ndarray, t: float, y: np.ndarray, size: float) -> np.ndarray | None:
-        """The band of every guard of a composed mode at once, ``guard_noise x sum |dh/dy|
-        (band_atol + band_rtol |y|) + 1e-14``, or None where the mode has no batched gradients
-        (``atol`` does not enter)."""
+        """:meth:`guard_band` for every guard of the composed mode ``cm`` at once (a network file,
+        ``sign()``): the same rounding noise as the guard-by-guard path, not a tolerances' band
+        (issue 30: that band hid the stick phases shorter than about 1e-8 s of Den Hartog's
+        oscillator written as a network file); None where the mode has no batched gradients."""
         fn = getattr(cm, "guard_noise_scale", None)
         if fn is None:
             return None
-        return self.guard_noise * fn(t, y, self.band_atol + self.band_rtol * np.abs(y)) + 1e-14
+        eps = self.rounding(y)
+        return self.guard_noise * fn(t, y, eps * (np.abs(y) + size), eps * abs(t)) + 1e-300
 
     def mode_solver(
         self,

@@ -272,6 +272,15 @@ class ComposedForm:
             np.array([s for s, _, _ in gterms], dtype=int),
             np.array([j for _, j, _ in gterms], dtype=int),
         )
+        # dh/dt of the slots whose expression reads the time explicitly (for the rounding of t)
+        tterms = [(s, diff(e, "t")) for s, e in enumerate(slot_exprs) if "t" in free_symbols(e)]
+        tterms = [(s, d) for s, d in tterms if not (d.op == "num" and d.args[0] == 0.0)]
+        self.guard_grad_t = (
+            compile_many([d for _, d in tterms], slots, "guard_time_rates", namespace=namespace)
+            if tterms
+            else None
+        )
+        self.guard_grad_t_at = np.array([s for s, _ in tterms], dtype=int)
         # Outputs: definitions of the own modes.
         self.outputs = []
         self.outputs_vec = []
@@ -541,15 +550,21 @@ class ComposedMode(ModeMethods):
             yp[a] = self._slave_lu(t, y, vals).solve(rhs)
         return yp
 
-    def guard_noise_scale(self, t: float, y: np.ndarray, scale: np.ndarray) -> np.ndarray:
-        """``sum_j |dh_s/dy_j| scale_j`` for every guard slot ``s`` (one call for all)."""
+    def guard_noise_scale(
+        self, t: float, y: np.ndarray, scale: np.ndarray, scale_t: float = 0.0
+    ) -> np.ndarray:
+        """``sum_j |dh_s/dy_j| scale_j + |dh_s/dt| scale_t`` for every guard slot ``s`` (one call
+        for all; ``scale_t`` [s]: the uncertainty of the time, none by default)."""
         out = np.zeros(self.form.n_slots)
         fn = self.form.guard_grad
-        if fn is None:
-            return out
-        vals = np.abs(np.asarray(fn([t, *np.asarray(y, dtype=float).tolist(), *self._ind]), dtype=float))
-        s, j = self.form.guard_grad_at
-        np.add.at(out, s, vals * scale[j])
+        v = [t, *np.asarray(y, dtype=float).tolist(), *self._ind]
+        if fn is not None:
+            vals = np.abs(np.asarray(fn(v), dtype=float))
+            s, j = self.form.guard_grad_at
+            np.add.at(out, s, vals * scale[j])
+        ft = self.form.guard_grad_t
+        if ft is not None and scale_t:
+            np.add.at(out, self.form.guard_grad_t_at, np.abs(np.asarray(ft(v), dtype=float)) * scale_t)
         return out
 
 

@@ -8,6 +8,7 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from decimal import ROUND_FLOOR, ROUND_HALF_EVEN, Decimal, localcontext
 from types import MappingProxyType
 
 from ..core.errors import InputError, ModelError
@@ -63,6 +64,32 @@ class Variable:
     description: str = ""
 
 
+#: Units that mark a parameter as an angle (a phase): its value is reduced mod 2 pi on input.
+ANGLE_UNITS = frozenset({"rad", "radian", "radians"})
+
+#: Largest angle [rad] accepted: beyond it the spacing of doubles (1.2e-10 rad at 1e6) makes the
+#: angle meaningless, and a phase of 1e300 gave 2.82 J per period on the exact integrator against
+#: 0.00067 J on IDA (which lost the time in ``Omega t + phi``; issue 30).
+MAX_ANGLE = 1e6
+
+_TWO_PI = Decimal("6.283185307179586476925286766559005768394338798750211641949889184615632812572417997")
+
+
+def reduce_angle(value: float, domain: str = "real") -> float:
+    """``value`` [rad] reduced mod 2 pi, exactly (decimal arithmetic): into (-pi, pi] for a
+    parameter of domain ``real``, [0, 2 pi) otherwise ((0, 2 pi] if ``positive``)."""
+    with localcontext() as ctx:
+        ctx.prec = 60
+        v = Decimal(value)
+        n = (v / _TWO_PI).to_integral_value(rounding=ROUND_HALF_EVEN if domain == "real" else ROUND_FLOOR)
+        r = float(v - n * _TWO_PI)
+    if domain == "real" and r <= -math.pi:
+        r += 2.0 * math.pi
+    if domain == "positive" and r == 0.0:
+        r = 2.0 * math.pi
+    return r
+
+
 @dataclass(frozen=True)
 class Parameter:
     """A model parameter.
@@ -77,6 +104,9 @@ class Parameter:
         One line saying what the parameter is.
     domain : {"real", "positive", "nonnegative"}
         Values allowed; every value must also be finite.
+
+    A parameter whose unit is an angle's (:data:`ANGLE_UNITS`) is reduced mod 2 pi on input
+    (:func:`reduce_angle`), the same for every integrator; one beyond :data:`MAX_ANGLE` is refused.
     """
 
     name: str
@@ -97,6 +127,13 @@ class Parameter:
         value = float(value)
         if not math.isfinite(value):
             raise InputError(f"{what} must be finite, got {value!r}")
+        if self.unit.strip() in ANGLE_UNITS:
+            if abs(value) > MAX_ANGLE:
+                raise InputError(
+                    f"{what} is an angle of {value!r} rad: at most {MAX_ANGLE:g} rad is accepted (the "
+                    "spacing of doubles makes a larger one meaningless); give it mod 2 pi"
+                )
+            value = reduce_angle(value, self.domain)
         if self.domain == "positive" and not value > 0:
             raise InputError(f"{what} must be > 0, got {value!r}")
         if self.domain == "nonnegative" and not value >= 0:

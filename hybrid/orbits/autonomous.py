@@ -31,6 +31,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ParameterOutOfDomain
+from ..core.notices import collected
 from ..core.options import ShootingOptions, reject_keywords
 from ..core.status import SolveStatus
 from ..core.threads import with_blas_threads
@@ -217,6 +218,7 @@ class AutonomousSolver:
 RETURN_WINDOW = 3.0
 
 
+@collected
 @with_blas_threads
 def autonomous_orbit(
     system: HybridSystem,

@@ -46,6 +46,7 @@ from ..core.budget import current_deadline, deadline_passed, limit_text, restore
 from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.files import FolderLock, write_atomic
+from ..core.notices import collected
 from ..core.options import ContinuationOptions
 from ..core.plain import options_text
 from ..core.status import PointStatus, ResponseStatus
@@ -370,7 +371,9 @@ def _curve_summary(fr, coordinate: str) -> dict:
         ],
         "curve": {par: om, "amplitude": amp, "stability": stab, "branch": branch},
     }
-    if amp:
+    if amp and status in (PointStatus.BOUNDED, PointStatus.INCOMPLETE):
+        # (an unbounded response has no peak: the largest orbit computed before a branch stopped,
+        # 11570 m on the tutorial's damper at R = 4 N, is no figure of merit; issue 30)
         i = int(np.argmax(amp))
         out.update(peak=amp[i], peak_at=om[i], peak_stability=stab[i])
     return out
@@ -742,6 +745,7 @@ def _grid_params(system: HybridSystem, params: Mapping[str, float], axes: Sequen
 
 
 # ----------------------------------------------------------------------------------------------
+@collected
 def sweep(
     system: HybridSystem,
     params: Mapping[str, float],
