@@ -18,7 +18,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from ..core.errors import InputError, OutputError
-from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text
+from ..core.files import MIN_FREE_BYTES, OutputFiles, free_bytes, os_error_text, unique_tag
 from ..core.options import INTEGRATORS, SolverOptions
 from ..engine.simulate import initial_state
 from ..integrators.registry import integrator
@@ -288,7 +288,7 @@ def writable_folder(out: Path) -> Path:
         if out.exists() and not out.is_dir():
             raise UsageError(f"`--out {out}`: exists and is not a folder")
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".hybrid-write-test-{os.getpid()}"
+        probe = out / f".hybrid-write-test-{unique_tag()}"
         fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         os.close(fd)
         probe.unlink()

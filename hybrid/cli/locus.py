@@ -26,7 +26,8 @@ import numpy as np
 from ..continuation.autonomous import AUTONOMOUS_CONTINUATION, equilibrium_branch, orbit_branch
 from ..continuation.forced import continue_orbits
 from ..continuation.locus import LOCUS_KINDS, continue_locus
-from ..core.budget import time_limit
+from ..core.budget import deadline_passed, time_limit
+from ..core.errors import BudgetExceeded
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.progress import ProgressBar
 from ..engine.io import to_json, write_rows_csv
@@ -101,12 +102,13 @@ def register(sub) -> None:
     p.set_defaults(handler=run)
 
 
-def _branches(system, params, args, options, x0, mode0) -> list:
-    """The one-parameter branches whose special points are offered (see the module docstring)."""
+def _branches(system, params, args, options, x0, mode0, out: list) -> None:
+    """The one-parameter branches whose special points are offered (see the module docstring),
+    appended to ``out`` as each is computed (a deadline that passes keeps those done)."""
     lo, hi = args.range
     if system.period is not None:
-        return [continue_orbits(system, params, args.param, (lo, hi), x0=x0, mode0=mode0, options=options)]
-    out = []
+        out.append(continue_orbits(system, params, args.param, (lo, hi), x0=x0, mode0=mode0, options=options))
+        return
     for mode in (m.name for m in system.modes):
         try:
             eb = equilibrium_branch(
@@ -131,7 +133,94 @@ def _branches(system, params, args, options, x0, mode0) -> list:
                     settings=st,
                 )
             )
-    return out
+
+
+def _stopped(branches: list, exc: BudgetExceeded | None) -> str | None:
+    """Why the branches do not cover the range (a budget ran out, or the deadline passed), or None;
+    called inside the command's :func:`hybrid.time_limit`."""
+    if exc is not None:
+        return str(exc)
+    late = [
+        b
+        for b in branches
+        if getattr(b, "reason", "") == "budget" or (deadline_passed() and b.status != "completed")
+    ]
+    if late:
+        return late[0].message
+    return "time limit reached (--max-time) before every branch was computed" if deadline_passed() else None
+
+
+def _compute_branches(system, params, args, options, x0, mode0, branches: list) -> str | None:
+    """:func:`_branches` into ``branches``; why they stopped short of the range (None if they did not)."""
+    try:
+        _branches(system, params, args, options, x0, mode0, branches)
+    except BudgetExceeded as exc:
+        return _stopped(branches, exc)
+    return _stopped(branches, None)
+
+
+def _listing(branches: list) -> list[str]:
+    """The special points of ``branches``, one line each, numbered as ``--point`` takes them."""
+    points = [(b, j) for b in branches for j in range(len(b.special))]
+    return [
+        f"  [{n}] {b.special[j].kind} at {b.parameter} = {b.special[j].parameter:.10g} ({b.special[j].status}) "
+        f"on a branch of {b.kind}"
+        for n, (b, j) in enumerate(points)
+    ]
+
+
+def _chosen(args, points: list, listing: list[str], stopped: str | None) -> list[int]:
+    """The special points to follow (``--point``, ``--kind``), checked.
+
+    Raises
+    ------
+    UsageError
+        A point that is not on the branch, or not of a kind followed, or none of the kinds asked for.
+    BudgetExceeded
+        As the first case or the last, but the branch stopped short of its range (a budget): the
+        point may lie beyond where it stopped.
+    """
+    late = f"the branch stopped before the end of its range ({stopped}); " if stopped is not None else ""
+    chosen = list(args.point or [])
+    for n in chosen:
+        if not 0 <= n < len(points):
+            text = f"--point {n}: the branch has {len(points)} special points" + (
+                f" (0 to {len(points) - 1})" if points else ""
+            )
+            if late:
+                raise BudgetExceeded("time", f"{late}{text} found before it")
+            raise UsageError(text)
+    chosen += [
+        n
+        for n, (b, j) in enumerate(points)
+        if args.kind and b.special[j].kind in args.kind and n not in chosen
+    ]
+    bad = [
+        n
+        for n in chosen
+        if points[n][0].special[points[n][1]].kind not in LOCUS_KINDS.get(points[n][0].kind, ())
+    ]
+    if bad:
+        raise UsageError(
+            f"special point(s) {', '.join(map(str, bad))} are not of a kind followed: "
+            + "; ".join(f"{k}: {', '.join(v)}" for k, v in LOCUS_KINDS.items())
+            + "\n"
+            + "\n".join(listing)
+        )
+    if not chosen:
+        if late:
+            raise BudgetExceeded(
+                "time", f"{late}no special point of the kinds asked for among those found before it"
+            )
+        raise UsageError(
+            "no special point of the kinds asked for on the branch:\n" + "\n".join(listing or ["  (none)"])
+        )
+    return chosen
+
+
+def coordinates(system) -> list[str]:
+    """The names ``--coordinate`` may take: the variables that are not quadratures, and the outputs."""
+    return [v for v in system.variable_names if v not in system.quadratures] + list(system.outputs)
 
 
 def run(args) -> int:
@@ -154,79 +243,64 @@ def run(args) -> int:
             raise UsageError("--param2 must differ from --param")
         if not (args.point or args.kind):
             raise UsageError("give the special points to follow (--point N or --kind K; --list shows them)")
+    if args.coordinate is not None and args.coordinate not in coordinates(system):
+        raise UsageError(
+            f"--coordinate `{args.coordinate}` is not a variable (other than a quadrature) nor an output of "
+            f"`{system.name}`; coordinates: {', '.join(coordinates(system))}"
+        )
     preset, params = parameters(system, args)
     x0, mode0 = guess(system, args)
     options = SolverOptions(rtol=args.rtol, atol=args.atol, **budget_options(args))
     check_integrator(system, params, options)
-    out = output_dir(system, args)
-    announce(system, preset, params)
-    bar = ProgressBar(f"locus {system.name}", enabled=args.progress)
-    t0 = time.perf_counter()
-    with time_limit(args.max_time):
-        branches = _branches(system, params, args, options, x0, mode0)
-        points = [(b, j) for b in branches for j in range(len(b.special))]
-        listing = [
-            f"  [{n}] {b.special[j].kind} at {b.parameter} = {b.special[j].parameter:.10g} ({b.special[j].status}) on a branch of {b.kind}"
-            for n, (b, j) in enumerate(points)
-        ]
-        if args.list:
-            print(
-                "\n".join(
-                    [f"{system.name}: special points of the branch in {args.param}"]
-                    + (listing or ["  (none)"])
-                )
+    if args.list:  # writes nothing: no folder to lock
+        announce(system, preset, params)
+        branches: list = []
+        with time_limit(args.max_time):
+            stopped = _compute_branches(system, params, args, options, x0, mode0, branches)
+        print(
+            "\n".join(
+                [f"{system.name}: special points of the branch in {args.param}"]
+                + (_listing(branches) or ["  (none)"])
             )
-            return 0
-        chosen = list(args.point or [])
-        for n in chosen:
-            if not 0 <= n < len(points):
-                raise UsageError(
-                    f"--point {n}: the branch has {len(points)} special points (0 to {len(points) - 1})"
-                )
-        chosen += [
-            n
-            for n, (b, j) in enumerate(points)
-            if args.kind and b.special[j].kind in args.kind and n not in chosen
-        ]
-        bad = [
-            n
-            for n in chosen
-            if points[n][0].special[points[n][1]].kind not in LOCUS_KINDS.get(points[n][0].kind, ())
-        ]
-        if bad:
-            raise UsageError(
-                f"special point(s) {', '.join(map(str, bad))} are not of a kind followed: "
-                + "; ".join(f"{k}: {', '.join(v)}" for k, v in LOCUS_KINDS.items())
-                + "\n"
-                + "\n".join(listing)
-            )
-        if not chosen:
-            raise UsageError(
-                "no special point of the kinds asked for on the branch:\n"
-                + "\n".join(listing or ["  (none)"])
-            )
-        loci = []
-        for m, n in enumerate(chosen):
-            b, j = points[n]
-            done = m / len(chosen)
-            lc = continue_locus(
-                b,
-                j,
-                args.param2,
-                tuple(args.range2),
-                step=args.step,
-                max_points=args.max_points,
-                options=options,
-                settings=ContinuationOptions() if b.kind == "forced-orbits" else None,
-                progress=lambda f, done=done: bar(min(1.0, done + f / len(chosen))),
-            )
-            loci.append(lc)
+        )
+        if stopped is not None:
             info(
-                f"locus of point {n} ({lc.kind}): {len(lc.points)} points in {lc.wall_time:.1f} s; {lc.message}"
+                f"hybrid: the branch stopped before the end of its range, so the list may miss points: {stopped}"
             )
-    bar(1.0)
-    wall = time.perf_counter() - t0
-    with results(out, FILES) as fs:  # the folder locked, the files renamed into place
+            return 1
+        return 0
+    out = output_dir(system, args)
+    bar = ProgressBar(f"locus {system.name}", enabled=args.progress)
+    with results(out, FILES) as fs:  # the folder locked for the whole run, the files renamed into place
+        announce(system, preset, params)  # (after the folder is locked and checked)
+        t0 = time.perf_counter()
+        with time_limit(args.max_time):
+            branches = []
+            stopped = _compute_branches(system, params, args, options, x0, mode0, branches)
+            points = [(b, j) for b in branches for j in range(len(b.special))]
+            listing = _listing(branches)
+            chosen = _chosen(args, points, listing, stopped)
+            loci = []
+            for m, n in enumerate(chosen):
+                b, j = points[n]
+                done = m / len(chosen)
+                lc = continue_locus(
+                    b,
+                    j,
+                    args.param2,
+                    tuple(args.range2),
+                    step=args.step,
+                    max_points=args.max_points,
+                    options=options,
+                    settings=ContinuationOptions() if b.kind == "forced-orbits" else None,
+                    progress=lambda f, done=done: bar(min(1.0, done + f / len(chosen))),
+                )
+                loci.append(lc)
+                info(
+                    f"locus of point {n} ({lc.kind}): {len(lc.points)} points in {lc.wall_time:.1f} s; {lc.message}"
+                )
+        bar(1.0)
+        wall = time.perf_counter() - t0
         rows = [
             {"locus": k, "point": n, **r}
             for k, (n, lc) in enumerate(zip(chosen, loci, strict=True))

@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import os
 import queue
 import re
@@ -127,7 +128,8 @@ class Axis:
 
 
 def _finite(name: str, what: str, v: float) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+    # any real number, numpy's scalars included (np.float32, np.int64: issue 33)
+    if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real) or not math.isfinite(v):
         raise InputError(f"axis `{name}`: {what} must be a finite number, got {v!r}")
     return float(v)
 
@@ -834,6 +836,11 @@ def sweep(
     ):
         raise InputError(
             f"sweep: `point_time_limit` must be a number of seconds > 0, got {point_time_limit!r}"
+        )
+    if not isinstance(folder, str | os.PathLike) or not str(folder).strip():
+        raise InputError(
+            f"sweep: `folder` must name a folder (a str or a Path), got {folder!r}: the sweep writes its "
+            "manifest and point files there"
         )
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():

@@ -1,0 +1,386 @@
+"""The faults of the third hostile-input run (issue 33) as tests: each failed before its fix.
+
+Faults 1-3: ``hybrid locus`` holds its folder's lock for the whole computation, says when the time
+limit cut its branch short, checks ``--coordinate`` up front. 4, 5, 10: the lock of an output folder
+is per run (thread or process), its cleanup touches only a dead owner's files, its release only its
+own lock file, and a run waits a few seconds for the workers of a dead holder. 6-8: the Python API's
+folder, numbers of numpy's types, ``HYBRID_BLAS_THREADS``.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hybrid
+import hybrid.cli.locus as locus_cli
+from hybrid.cli import main
+from hybrid.core.files import LOCK_NAME, STAGING_PREFIX, FolderLock, OutputFiles, write_atomic
+
+#: ``hybrid locus`` on the friction oscillator (its branch in Omega has one branch point).
+LOCUS = [
+    *("locus", "friction_oscillator", "--preset", "shaw", "--param", "Omega", "--range", "0.44", "0.48"),
+    *("--integrator", "exact"),
+]
+FOLLOW = ["--param2", "Rs", "--range2", "0.49", "0.51", "--kind", "branch-point", "--step", "0.2"]
+
+
+def run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def _locked(folder: Path) -> bool:
+    """Whether another open file description cannot lock ``folder``'s lock now (as another process)."""
+    try:
+        fd = os.open(folder / LOCK_NAME, os.O_RDWR)
+    except FileNotFoundError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
+# ----------------------------------------------------------------------------------------------
+# 1. locus holds the lock while it computes
+def test_locus_holds_its_folders_lock_while_it_computes(tmp_path, capsys, monkeypatch):
+    # issue 33, fault 1: the lock was taken only to write, after the computation
+    seen = []
+    real = locus_cli._branches
+
+    def spy(*a, **k):
+        seen.append(_locked(tmp_path / "o"))
+        return real(*a, **k)
+
+    monkeypatch.setattr(locus_cli, "_branches", spy)
+    code, _, err = run([*LOCUS, "--list", "--max-time", "0.01"], capsys)  # --list writes nothing
+    assert seen == [False]
+    seen.clear()
+
+    def stop(*a, **k):  # the folder locked while computing; stop there
+        seen.append(_locked(tmp_path / "o"))
+        raise hybrid.BudgetExceeded("time", "time limit reached: stopped by the test")
+
+    monkeypatch.setattr(locus_cli, "_branches", stop)
+    code, _, err = run([*LOCUS, *FOLLOW, "--no-plot", "--out", tmp_path / "o"], capsys)
+    assert seen == [True]
+    assert code == 1
+    assert "time limit reached: stopped by the test" in err
+
+
+def test_locus_into_a_held_folder_is_refused_before_computing(tmp_path, capsys, monkeypatch):
+    # issue 33, fault 1, the other order: locus computed 78.6 s, then was refused
+    def never(*a, **k):
+        raise AssertionError("computed in a held folder")
+
+    monkeypatch.setattr(locus_cli, "_branches", never)
+    with FolderLock(tmp_path / "o", "held"):
+        done = []
+        t = threading.Thread(
+            target=lambda: done.append(run([*LOCUS, *FOLLOW, "--no-plot", "--out", tmp_path / "o"], capsys))
+        )
+        t.start()
+        t.join()
+    code, out, err = done[0]
+    assert code == 2
+    assert "is in use by another hybrid run" in err
+    assert not (tmp_path / "o" / "locus.csv").exists()
+
+
+# ----------------------------------------------------------------------------------------------
+# 2. locus --list / --kind when the time limit cuts the branch
+def test_locus_list_and_kind_say_the_time_limit_was_reached_with_exit_1(tmp_path, capsys):
+    # issue 33, fault 2: exit 0 with "(none)" (--list) and exit 2 "no special point" (--kind)
+    code, out, err = run([*LOCUS, "--list", "--max-time", "0.01"], capsys)
+    assert code == 1
+    assert "the branch stopped before the end of its range, so the list may miss points" in err
+    assert "time limit reached" in err
+    code, out, err = run(
+        [*LOCUS, *FOLLOW, "--no-plot", "--max-time", "0.01", "--out", tmp_path / "o"], capsys
+    )
+    assert code == 1
+    line = [ln for ln in err.splitlines() if ln.startswith("hybrid:")]
+    assert len(line) == 1 and "time limit reached" in line[0]
+    assert "no special point of the kinds asked for among those found before it" in line[0]
+
+
+# ----------------------------------------------------------------------------------------------
+# 3. locus --coordinate checked up front
+@pytest.mark.parametrize("extra", [["--list"], [*FOLLOW, "--no-plot"], FOLLOW])
+def test_locus_coordinate_is_checked_before_any_computation(extra, tmp_path, capsys, monkeypatch):
+    # issue 33, fault 3: the whole computation ran, then a KeyError traceback (or silently ignored)
+    monkeypatch.setattr(locus_cli, "_branches", lambda *a, **k: pytest.fail("computed"))
+    code, out, err = run([*LOCUS, *extra, "--coordinate", "zz", "--out", tmp_path / "o"], capsys)
+    assert code == 2
+    assert err.strip() == (
+        "hybrid: error: --coordinate `zz` is not a variable (other than a quadrature) nor an output of "
+        "`friction_oscillator`; coordinates: x, v, H, E, force, friction"
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# 4. cleanup only of a dead owner's files; release only of its own lock file
+#: A run (argv[1]: the folder) inside OutputFiles: stages a.txt, says so, waits for a line on stdin.
+RUN_A = (
+    "import sys\n"
+    "from hybrid.core.files import OutputFiles\n"
+    "with OutputFiles(sys.argv[1], ['a.txt'], 'run A') as f:\n"
+    "    f.path('a.txt').write_text('A')\n"
+    "    print('staged', flush=True)\n"
+    "    sys.stdin.readline()\n"
+)
+
+
+def test_a_removed_lock_file_costs_no_live_runs_files_nor_the_newcomers_lock(tmp_path):
+    # issue 33, fault 4: the newcomer's cleanup removed every staging folder, live ones included,
+    # and the first run's release unlinked the newcomer's lock file
+    out = tmp_path / "o"
+    out.mkdir()
+    a = subprocess.Popen(
+        [sys.executable, "-c", RUN_A, str(out)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert a.stdout.readline().strip() == "staged"
+        staged_a = [p.name for p in out.iterdir() if p.name.startswith(STAGING_PREFIX)]
+        assert len(staged_a) == 1
+        os.unlink(out / LOCK_NAME)  # a user removes the lock of a live run
+        (out / ".hybrid-run-999999").mkdir()  # what a dead run left
+        with OutputFiles(out, ["b.txt"], "run B") as b:
+            assert (out / staged_a[0] / "a.txt").read_text() == "A"  # the live run's, kept
+            assert not (out / ".hybrid-run-999999").exists()  # the dead run's, removed
+            b.path("b.txt").write_text("B")
+            a.stdin.write("\n")
+            a.stdin.flush()
+            assert a.wait(timeout=30) == 0
+            assert (out / "a.txt").read_text() == "A"  # run A ended whole
+            assert _locked(out)  # and left B's lock file, and lock, in place
+        assert (out / "b.txt").read_text() == "B"
+        assert not (out / LOCK_NAME).exists()
+    finally:
+        a.kill()
+        a.wait()
+
+
+# ----------------------------------------------------------------------------------------------
+# 5. the lock per thread; unique temporary names
+def test_another_thread_is_another_run_refused_and_reentrance_stays_within_a_thread(tmp_path):
+    # issue 33, fault 5: the lock was re-entrant per process: two threads both got in
+    held, go, done = threading.Event(), threading.Event(), threading.Event()
+
+    def holder():
+        with FolderLock(tmp_path, "thread A"):
+            with FolderLock(tmp_path, "thread A again"):  # re-entrant within the thread
+                held.set()
+                go.wait(30)
+        done.set()
+
+    t = threading.Thread(target=holder)
+    t.start()
+    try:
+        assert held.wait(30)
+        with pytest.raises(
+            hybrid.FolderInUse, match=r"is in use by another hybrid run \(pid \d+, `thread A`"
+        ):
+            FolderLock(tmp_path, "main thread").acquire()
+    finally:
+        go.set()
+        t.join()
+    assert done.is_set() and not (tmp_path / LOCK_NAME).exists()
+    FolderLock(tmp_path).acquire().release()  # free again
+
+
+def test_two_threads_writing_one_file_never_share_a_temporary_file(tmp_path):
+    # issue 33, fault 5: both used one temporary name (EEXIST / ENOENT)
+    errors, payloads = [], [("x" * 200_000), ("y" * 200_000)]
+    barrier = threading.Barrier(2)
+
+    def writer(data):
+        barrier.wait()
+        for _ in range(30):
+            try:
+                write_atomic(tmp_path / "f.json", data)
+            except Exception as exc:  # noqa: BLE001 - collected for the assertion
+                errors.append(exc)
+
+    threads = [threading.Thread(target=writer, args=(d,)) for d in payloads]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    assert (tmp_path / "f.json").read_text() in payloads
+    assert [p.name for p in tmp_path.iterdir()] == ["f.json"]
+
+
+def test_two_threads_sweeping_into_one_folder_one_refused_the_other_whole(tmp_path):
+    # issue 33, fault 5, as the user met it: two threads calling hybrid.sweep into one folder
+    system = hybrid.resolve_model("coulomb")
+    params = system.parameter_values({}, preset="forced")
+    axis = hybrid.linear_axis("F", 0.4, 0.5, 0.1)
+    options = hybrid.SolverOptions(integrator="exact")
+    results, started = [], threading.Event()
+    real = FolderLock.acquire
+
+    def slow_acquire(self):  # hold the folder long enough for the other thread to try
+        out = real(self)
+        started.set()
+        time.sleep(0.2)
+        return out
+
+    def one():
+        try:
+            results.append(
+                hybrid.sweep(system, params, [axis], tmp_path / "s", p_range=(0.6, 0.7), options=options)
+            )
+        except hybrid.FolderInUse as exc:
+            results.append(exc)
+
+    FolderLock.acquire = slow_acquire
+    try:
+        a = threading.Thread(target=one)
+        a.start()
+        started.wait(30)
+        FolderLock.acquire = real
+        one()
+        a.join()
+    finally:
+        FolderLock.acquire = real
+    refused = [r for r in results if isinstance(r, hybrid.FolderInUse)]
+    done = [r for r in results if not isinstance(r, Exception)]
+    assert len(refused) == 1 and len(done) == 1
+    assert sorted(p.name for p in (tmp_path / "s").iterdir()) == [
+        "manifest.json",
+        "point-0000.json",
+        "point-0001.json",
+    ]
+
+
+# ----------------------------------------------------------------------------------------------
+# 6. hybrid.sweep(folder='')
+@pytest.mark.parametrize("folder", ["", "  "])
+def test_the_library_sweep_refuses_an_empty_folder_name(folder, tmp_path, monkeypatch):
+    # issue 33, fault 6: it wrote manifest.json, point files and the lock into the working directory
+    monkeypatch.chdir(tmp_path)
+    system = hybrid.resolve_model("coulomb")
+    with pytest.raises(hybrid.InputError, match="`folder` must name a folder"):
+        hybrid.sweep(
+            system,
+            system.parameter_values({}, preset="forced"),
+            [hybrid.linear_axis("F", 0.4, 0.4, 0.1)],
+            folder,
+        )
+    assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------------------------
+# 7. numpy scalars are numbers
+def test_numpy_scalars_are_numbers_in_options_and_axes():
+    # issue 33, fault 7: refused as "must be a finite number"
+    o = hybrid.SolverOptions(rtol=np.float32(1e-8), atol={"x": np.float64(1e-9)}, max_steps=np.int64(1000))
+    assert o.rtol == float(np.float32(1e-8)) and type(o.rtol) is float
+    assert o.max_steps == 1000 and type(o.max_steps) is int
+    assert o.atol_vector(["x", "v"]) == [1e-9, o.atol_default]
+    c = hybrid.ContinuationOptions(ds=np.float32(0.5), max_points=np.int32(7))
+    assert (c.ds, c.max_points) == (0.5, 7) and type(c.max_points) is int
+    assert hybrid.NewtonOptions(tol=np.float16(0.5), max_iter=np.uint8(3)) == hybrid.NewtonOptions(0.5, 3)
+    assert hybrid.linear_axis("R", np.int64(1), 2.0, np.float32(0.5)).values == (1.0, 1.5, 2.0)
+    with pytest.raises(hybrid.InputError, match="must be a finite number > 0, got np.True_"):
+        hybrid.SolverOptions(rtol=np.bool_(True))  # a bool is not a number, numpy's neither
+    with pytest.raises(hybrid.InputError, match="must be an integer >= 1, got 2.5"):
+        hybrid.SolverOptions(max_steps=np.float64(2.5))
+
+
+# ----------------------------------------------------------------------------------------------
+# 8. HYBRID_BLAS_THREADS out of range
+@pytest.mark.parametrize("value", ["99999999999999999999", "4097", "-1", "two"])
+def test_a_blas_thread_count_out_of_range_is_one_line(value, tmp_path, capsys, monkeypatch):
+    # issue 33, fault 8: ctypes.ArgumentError traceback (an integer over a C int)
+    monkeypatch.setenv("HYBRID_BLAS_THREADS", value)
+    code, out, err = run(
+        ["simulate", "coulomb", "--t-end", "1", "--no-plot", "--out", tmp_path / "o"], capsys
+    )
+    assert code == 2
+    assert err.splitlines()[-1] == (
+        f"hybrid: error: HYBRID_BLAS_THREADS={value!r}: give a number of threads from 1 to 4096, or 0 to "
+        "leave BLAS as it is"
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# 10. a dead holder's workers
+#: A run that locks argv[1] as hybrid does, forks a worker that lives argv[2] seconds, and is killed.
+DEAD_WITH_WORKER = (
+    "import os, signal, sys, time\n"
+    "from hybrid.core.files import FolderLock\n"
+    "FolderLock(sys.argv[1], 'hybrid sweep killed').acquire()\n"
+    "if os.fork() == 0:\n"
+    "    [os.dup2(os.open(os.devnull, os.O_RDWR), k) for k in (1, 2)]  # (the pipes of subprocess.run)\n"
+    "    time.sleep(float(sys.argv[2])); os._exit(0)\n"
+    "print('forked', flush=True)\n"
+    "os.kill(os.getpid(), signal.SIGKILL)\n"
+)
+#: As DEAD_WITH_WORKER, but the lock taken by hand (a program that is not hybrid): its fork keeps it.
+RAW_DEAD_WITH_WORKER = (
+    "import fcntl, json, os, signal, sys, time\n"
+    "fd = os.open(os.path.join(sys.argv[1], '.hybrid.lock'), os.O_RDWR | os.O_CREAT, 0o644)\n"
+    "fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)\n"
+    "os.write(fd, json.dumps({'pid': os.getpid(), 'command': 'hybrid sweep killed'}).encode())\n"
+    "if os.fork() == 0:\n"
+    "    [os.dup2(os.open(os.devnull, os.O_RDWR), k) for k in (1, 2)]  # (the pipes of subprocess.run)\n"
+    "    time.sleep(float(sys.argv[2])); os._exit(0)\n"
+    "print('forked', flush=True)\n"
+    "os.kill(os.getpid(), signal.SIGKILL)\n"
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", [DEAD_WITH_WORKER, RAW_DEAD_WITH_WORKER], ids=["hybrid", "raw"])
+def test_a_killed_runs_exiting_workers_do_not_refuse_the_next_run(script, tmp_path):
+    # issue 33, fault 10: a resume right after kill -9 of a sweep was refused naming the dead pid
+    out = tmp_path / "o"
+    out.mkdir()
+    p = subprocess.run(
+        [sys.executable, "-c", script, str(out), "2"], capture_output=True, text=True, timeout=60
+    )
+    assert p.stdout.strip() == "forked"
+    lock = FolderLock(out, "resume").acquire()  # hybrid's worker let it go; the raw one is waited for
+    try:
+        assert lock.stale is not None and lock.stale["command"] == "hybrid sweep killed"
+    finally:
+        lock.release()
+
+
+@pytest.mark.slow
+def test_a_dead_holders_workers_that_outlive_the_wait_are_named(tmp_path, monkeypatch):
+    monkeypatch.setattr("hybrid.core.files.DEAD_HOLDER_WAIT", 0.5)
+    out = tmp_path / "o"
+    out.mkdir()
+    p = subprocess.run(
+        [sys.executable, "-c", RAW_DEAD_WITH_WORKER, str(out), "5"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert p.stdout.strip() == "forked"
+    holder = json.loads((out / LOCK_NAME).read_text())
+    with pytest.raises(hybrid.FolderInUse) as info:
+        FolderLock(out).acquire()
+    assert str(info.value) == (
+        f"output folder {str(out)!r} is still locked by processes that the run pid {holder['pid']} "
+        "(`hybrid sweep killed`) started, though that run has ended (waited 0.5 s for them): wait for them "
+        "to exit (or stop them), or choose another folder (--out)"
+    )
