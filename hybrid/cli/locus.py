@@ -12,6 +12,11 @@ points followed in two parameters (:func:`hybrid.continue_locus`).
 Writes ``locus.csv`` (one row per point of every locus), ``locus_branch.csv`` (the branch),
 ``locus.json`` (the special points of the branch, each locus's end, status and wall time) and
 ``locus.png`` (the branch above, the parameter plane below).
+
+A point is reported ``located`` when its interval's half-width is at most ``--locate-tol`` times
+the range of the parameter it was located in (``--range`` or ``--range2``), else ``bracketed``
+with its interval; the locators work to the library's tolerance (1e-10 of the range) or a finer
+``--locate-tol``.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from dataclasses import replace
+from dataclasses import is_dataclass, replace
 
 import numpy as np
 
@@ -30,6 +35,7 @@ from ..core.budget import deadline_passed, time_limit
 from ..core.errors import BudgetExceeded
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.progress import ProgressBar
+from ..core.status import LocateStatus
 from ..engine.io import to_json, write_rows_csv
 from ..orbits.autonomous import autonomous_orbit
 from .common import (
@@ -56,6 +62,12 @@ from .common import (
 FILES = ("locus.csv", "locus_branch.csv", "locus.png", "locus.json")
 
 __all__ = ["register", "run"]
+
+#: Default of ``--locate-tol`` (issue 33: the library's ContinuationOptions.locate_tol, 1e-10 of the
+#: range, is finer than the exact flow's rounding margin on a narrow range: the absorber's band edge
+#: over Omega in [0.852, 0.858], known to 1.5e-12, was reported "bracketed, not located to the
+#: tolerance", that tolerance 6e-13).
+LOCATE_TOL = 1e-9
 
 #: Grid of the equilibrium branches of an autonomous model (points over the range).
 EQUILIBRIUM_POINTS = 41
@@ -87,6 +99,15 @@ def register(sub) -> None:
     p.add_argument(
         "--max-points", type=positive_int, default=200, help="points per half of a locus (default 200)"
     )
+    p.add_argument(
+        "--locate-tol",
+        type=positive_float,
+        default=LOCATE_TOL,
+        metavar="TOL",
+        help="a special point is `located` when its interval's half-width is at most TOL times the "
+        f"range of its parameter (--range, or --range2 for a point located in the second; default {LOCATE_TOL:g}); "
+        "else `bracketed`, with its interval",
+    )
     add_guess_args(p)
     add_tolerances(p)
     p.add_argument(
@@ -107,7 +128,18 @@ def _branches(system, params, args, options, x0, mode0, out: list) -> None:
     appended to ``out`` as each is computed (a deadline that passes keeps those done)."""
     lo, hi = args.range
     if system.period is not None:
-        out.append(continue_orbits(system, params, args.param, (lo, hi), x0=x0, mode0=mode0, options=options))
+        out.append(
+            continue_orbits(
+                system,
+                params,
+                args.param,
+                (lo, hi),
+                x0=x0,
+                mode0=mode0,
+                options=options,
+                settings=ContinuationOptions(locate_tol=_search_tol(args)),
+            )
+        )
         return
     for mode in (m.name for m in system.modes):
         try:
@@ -121,7 +153,12 @@ def _branches(system, params, args, options, x0, mode0, out: list) -> None:
     orbit = autonomous_orbit(system, params, x0, mode0, options=options)
     if orbit.converged and min(lo, hi) <= params[args.param] <= max(lo, hi):
         span = abs(hi - lo)
-        st = replace(AUTONOMOUS_CONTINUATION, ds=0.02 * max(span, 1.0), ds_max=0.05 * max(span, 1.0))
+        st = replace(
+            AUTONOMOUS_CONTINUATION,
+            ds=0.02 * max(span, 1.0),
+            ds_max=0.05 * max(span, 1.0),
+            locate_tol=_search_tol(args),
+        )
         for direction in (1, -1):
             out.append(
                 orbit_branch(
@@ -133,6 +170,43 @@ def _branches(system, params, args, options, x0, mode0, out: list) -> None:
                     settings=st,
                 )
             )
+
+
+def _search_tol(args) -> float:
+    """The tolerance the locators work to (relative to a range): the library's default, or the
+    one asked for where it is finer. How a point is reported follows ``--locate-tol``
+    (:func:`_to_tolerance`)."""
+    return min(ContinuationOptions().locate_tol, args.locate_tol)
+
+
+def _to_tolerance(point, tol: float):
+    """``point`` (a special point or a locus point) ``located`` if its interval's half-width is at
+    most ``tol`` [the parameter's unit], else ``bracketed`` (one known on a side only stays so)."""
+    if not (is_dataclass(point) and hasattr(point, "accuracy") and hasattr(point, "description")):
+        return point
+    if not math.isfinite(point.accuracy) or point.status == LocateStatus.UNLOCATED:
+        return point
+    if point.accuracy <= tol:
+        note = "; not located to the tolerance"
+        desc = point.description.replace(note, "").replace("not located to the tolerance", "").rstrip("; ")
+        return replace(point, status=LocateStatus.LOCATED, description=desc)
+    return replace(point, status=LocateStatus.BRACKETED)
+
+
+def _report_to_tolerance(branches: list, tol: float) -> None:
+    """Every branch's special points through :func:`_to_tolerance` (``tol``: in ``--param``)."""
+    for b in branches:
+        b.special[:] = [_to_tolerance(sp, tol) for sp in b.special]
+
+
+def _settings(branch, locate_tol: float) -> ContinuationOptions | None:
+    """The settings of a locus's one-parameter branches: ``--locate-tol`` in those of its kind
+    (None: an equilibrium branch's, which continue_locus takes)."""
+    if branch.kind == "forced-orbits":
+        return ContinuationOptions(locate_tol=locate_tol)
+    if branch.kind == "equilibria":
+        return None
+    return replace(AUTONOMOUS_CONTINUATION, locate_tol=locate_tol)
 
 
 def _stopped(branches: list, exc: BudgetExceeded | None) -> str | None:
@@ -257,6 +331,7 @@ def run(args) -> int:
         branches: list = []
         with time_limit(args.max_time):
             stopped = _compute_branches(system, params, args, options, x0, mode0, branches)
+        _report_to_tolerance(branches, args.locate_tol * abs(hi - lo))
         print(
             "\n".join(
                 [f"{system.name}: special points of the branch in {args.param}"]
@@ -277,6 +352,7 @@ def run(args) -> int:
         with time_limit(args.max_time):
             branches = []
             stopped = _compute_branches(system, params, args, options, x0, mode0, branches)
+            _report_to_tolerance(branches, args.locate_tol * abs(hi - lo))
             points = [(b, j) for b in branches for j in range(len(b.special))]
             listing = _listing(branches)
             chosen = _chosen(args, points, listing, stopped)
@@ -292,9 +368,12 @@ def run(args) -> int:
                     step=args.step,
                     max_points=args.max_points,
                     options=options,
-                    settings=ContinuationOptions() if b.kind == "forced-orbits" else None,
+                    settings=_settings(b, _search_tol(args)),
                     progress=lambda f, done=done: bar(min(1.0, done + f / len(chosen))),
                 )
+                tols = {args.param: args.locate_tol * abs(hi - lo)}
+                tols[args.param2] = args.locate_tol * abs(args.range2[1] - args.range2[0])
+                lc.points[:] = [_to_tolerance(q, tols[q.located]) for q in lc.points]
                 loci.append(lc)
                 info(
                     f"locus of point {n} ({lc.kind}): {len(lc.points)} points in {lc.wall_time:.1f} s; {lc.message}"
@@ -324,6 +403,7 @@ def run(args) -> int:
             "range": [lo, hi],
             "parameter2": args.param2,
             "range2": list(args.range2),
+            "locate_tol": args.locate_tol,
             "special": [
                 {
                     "point": n,
