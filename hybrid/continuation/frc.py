@@ -57,12 +57,34 @@ def resonances(system: HybridSystem, params: Mapping[str, float]) -> np.ndarray:
 
 
 def default_range(system: HybridSystem, params: Mapping[str, float]) -> tuple[float, float]:
-    """``(0.8 min, 1.2 max)`` of the natural frequencies of :func:`resonances` [rad/s].
+    """The default range of a frequency response: ``(0.8 min, 1.2 max)`` of the natural
+    frequencies of :func:`resonances` [rad/s].
+
+    Parameters
+    ----------
+    system : HybridSystem
+        A model with a forcing period.
+    params : mapping of str to float
+        Its parameter values.
+
+    Returns
+    -------
+    (float, float)
+        The range's ends [rad/s].
 
     Raises
     ------
     ValueError
-        If the linearisations have no oscillating mode.
+        If the linearisations have no oscillating mode (give the range instead).
+
+    Examples
+    --------
+    >>> import hybrid
+    >>> from hybrid.continuation.frc import default_range
+    >>> ab = hybrid.resolve_model("absorber")
+    >>> lo, hi = default_range(ab, ab.parameter_values({}, preset="standard"))
+    >>> 0 < lo < hi
+    True
     """
     w = resonances(system, params)
     if w.size == 0:
