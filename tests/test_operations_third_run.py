@@ -556,3 +556,79 @@ def test_every_command_is_in_the_readmes_command_list_and_locus_in_the_guide():
     guide = (DOCS / "guide.md").read_text()
     assert "`hybrid locus MODEL --param P --range A B --list`" in guide
     assert "hybrid locus" in sub.choices["locus"].prog
+
+
+# ----------------------------------------------------------------------------------------------
+# 16. results as tables; a one-axis sweep's index an int
+def _coulomb_sweep(tmp_path, axes, seen):
+    system = hybrid.resolve_model("coulomb")
+    params = system.parameter_values({}, preset="forced")
+    return hybrid.sweep(
+        system,
+        params,
+        axes,
+        tmp_path,
+        p_range=(0.8, 0.82),
+        options=hybrid.SolverOptions(integrator="exact"),
+        on_point=lambda i, r: seen.append((i, r)),
+    )
+
+
+@pytest.mark.slow
+def test_a_one_axis_sweep_gives_on_point_an_int_and_exports_its_points(tmp_path):
+    # issue 33, friction 16: on_point of a one-axis sweep got the index (1,); results had no
+    # to_numpy() / to_pandas()
+    seen = []
+    res = _coulomb_sweep(tmp_path / "a", [hybrid.linear_axis("F", 0.4, 0.5, 0.1)], seen)
+    assert [i for i, _ in seen] == [0, 1] and all(type(i) is int for i, _ in seen)
+    assert all(r is res.points[(i,)] or r == res.points[(i,)] for i, r in seen)
+    a = res.to_numpy()
+    assert list(a["index.F"]) == [0.0, 1.0]
+    assert list(a["values.F"]) == [0.4, 0.5]
+    assert list(a["status"]) == [res.points[(k,)]["status"] for k in (0, 1)]
+    assert list(a["peak"]) == [res.points[(k,)]["peak"] for k in (0, 1)]
+    df = res.to_pandas()
+    assert list(df.columns) == list(a.dtype.names)
+    assert df["peak"].tolist() == list(a["peak"])
+    seen.clear()
+    res2 = _coulomb_sweep(
+        tmp_path / "b", [hybrid.linear_axis("F", 0.4, 0.4, 0.1), hybrid.linear_axis("R", 0.1, 0.2, 0.1)], seen
+    )
+    assert [i for i, _ in seen] == [(0, 0), (0, 1)]  # several axes: a tuple, as before
+    assert list(res2.to_numpy()["values.R"]) == [0.1, 0.2]
+
+
+def test_a_trajectory_and_a_branch_export_their_columns(monkeypatch):
+    system = hybrid.resolve_model("coulomb")
+    params = system.parameter_values({}, preset="forced")
+    tr = hybrid.simulate(system, params, (0.0, 3.0), dict.fromkeys(system.variable_names, 0.0))
+    a = tr.to_numpy()
+    assert a.dtype.names == ("t", "mode", *tr.names, *tr.outputs)
+    assert np.array_equal(a["t"], tr.t) and list(a["mode"]) == list(tr.mode)
+    for k, n in enumerate(tr.names):
+        assert np.array_equal(a[n], tr.y[:, k])
+    for n, v in tr.outputs.items():
+        assert np.array_equal(a[n], v)
+    df = tr.to_pandas()
+    assert df.shape == (tr.t.size, len(a.dtype.names)) and np.array_equal(df["x"].to_numpy(), tr.y[:, 0])
+
+    br = hybrid.continue_orbits(
+        system,
+        params,
+        "Omega",
+        (0.8, 0.82),
+        x0=dict.fromkeys(system.variable_names, 0.0),
+        options=hybrid.SolverOptions(integrator="exact"),
+    )
+    rows = br.to_rows()
+    b = br.to_numpy()
+    assert len(b) == len(rows) == len(br.points) >= 2
+    assert list(b["Omega"]) == [r["Omega"] for r in rows]
+    assert list(b["stability"]) == [str(r["stability"]) for r in rows]
+
+    monkeypatch.setitem(sys.modules, "pandas", None)  # pandas absent: one clear error
+    with pytest.raises(
+        ImportError, match=r"to_pandas\(\) needs pandas, which is not installed: `pip install 'pandas>=2'`"
+    ):
+        br.to_pandas()
+    assert len(br.to_numpy()) == len(rows)  # numpy only

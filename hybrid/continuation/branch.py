@@ -9,6 +9,7 @@ import numpy as np
 
 from ..core.errors import InputError, ModelError
 from ..core.status import BranchStatus
+from ..core.tables import Tabular, table_columns
 from ..model.expr import free_symbols
 from ..model.system import HybridSystem
 from ..orbits.equilibria import Equilibrium
@@ -25,7 +26,7 @@ BRANCH_KINDS = ("forced-orbits", "autonomous-orbits", "equilibria")
 
 
 @dataclass
-class Branch:
+class Branch(Tabular):
     """A branch of solutions continued in one parameter: periodic orbits or equilibria.
 
     Attributes
@@ -88,6 +89,10 @@ class Branch:
     @property
     def stability(self) -> list[str]:
         return [o.stability for o in self.points]
+
+    def table(self) -> dict[str, list]:
+        """The columns of :meth:`to_rows` (for :meth:`to_numpy`, :meth:`to_pandas`)."""
+        return table_columns(self.to_rows())
 
     def to_rows(self) -> list[dict]:
         """One dict per point (for CSV)."""

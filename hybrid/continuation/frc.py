@@ -25,6 +25,7 @@ from ..core.callbacks import OnPoint, Progress
 from ..core.errors import InputError, WorkerError
 from ..core.options import ContinuationOptions, SolverOptions, reject_keywords
 from ..core.status import BranchStatus, ResponseStatus
+from ..core.tables import Tabular, table_columns
 from ..core.threads import with_blas_threads
 from ..core.workers import die_with_parent
 from ..model.linear import natural_frequencies
@@ -129,7 +130,7 @@ class Piece:
 
 
 @dataclass
-class FrequencyResponse:
+class FrequencyResponse(Tabular):
     """Result of :func:`frequency_response`.
 
     Attributes
@@ -168,6 +169,12 @@ class FrequencyResponse:
     reason: str = ""
     #: Where the deadline that stopped it comes from (:func:`hybrid.core.budget.limit_text`).
     limit: str = "hybrid.time_limit; CLI --max-time"
+
+    def table(self) -> dict[str, list]:
+        """One row per orbit of every branch, in order of the range: the branch's number
+        (``branch``) and :meth:`hybrid.Branch.to_rows`'s columns (for :meth:`to_numpy`,
+        :meth:`to_pandas`)."""
+        return table_columns({"branch": k, **r} for k, b in enumerate(self.branches) for r in b.to_rows())
 
     @property
     def branches(self) -> list[Branch]:

@@ -50,6 +50,7 @@ from ..core.errors import InputError, InputTypeError, ModelError
 from ..core.files import FolderLock, write_atomic
 from ..core.options import ContinuationOptions, SolverOptions
 from ..core.status import PointStatus, ResponseStatus
+from ..core.tables import Tabular, table_columns
 from ..core.version import __version__
 from ..engine.io import to_json
 from ..model.elements import Component, Mode, Parameter, Transition, Variable
@@ -461,7 +462,7 @@ def _options_dict(o) -> dict:
 
 
 @dataclass
-class SweepResult:
+class SweepResult(Tabular):
     """A sweep's folder as read back: its manifest and the result of every finished point.
 
     Attributes
@@ -501,6 +502,18 @@ class SweepResult:
     def complete(self) -> bool:
         """Every point of the grid has a result."""
         return len(self.points) == math.prod(self.shape)
+
+    def table(self) -> dict[str, list]:
+        """One row per finished point, in grid order: ``index`` (one column per axis, e.g.
+        ``index.R``), the axes' ``values`` (``values.R``) and the rest of its file (for
+        :meth:`to_numpy`, :meth:`to_pandas`)."""
+        names = [a["name"] for a in self.manifest["axes"]]
+        rows = []
+        for index in sorted(self.points):
+            r = dict(self.points[index])
+            r["index"] = dict(zip(names, (int(i) for i in index), strict=True))
+            rows.append(r)
+        return table_columns(rows)
 
     def counts(self) -> dict[str, int]:
         """Points per status (:data:`STATUSES`), and ``missing``."""
@@ -780,7 +793,8 @@ def sweep(
         too), once before the first point is computed and after every point.
     on_point : callable, optional
         ``on_point(index, result)`` with every point computed here, as it is written (its grid
-        index, a tuple, and the dict of its file), before ``progress`` (:mod:`hybrid.core.callbacks`).
+        index: an int on a grid of one axis, else a tuple of ints, one per axis; and the dict of
+        its file), before ``progress`` (:mod:`hybrid.core.callbacks`).
     heartbeat : callable, optional
         With an executor: called here about once a second while points are computed (e.g. to
         check that a cluster still has workers); an exception it raises stops the sweep (the
@@ -967,8 +981,8 @@ def _run(
         write_atomic(folder / _point_name(index), to_json(result) + "\n")
         res.points[index] = json.loads(to_json(result))
         res.computed.append(index)
-        if on_point is not None:
-            on_point(index, res.points[index])
+        if on_point is not None:  # a one-axis grid's index as an int (issue 33), as numpy's
+            on_point(index[0] if len(index) == 1 else index, res.points[index])
         if progress is not None:
             progress(len(res.points) / total)
 
