@@ -632,3 +632,25 @@ def test_a_trajectory_and_a_branch_export_their_columns(monkeypatch):
     ):
         br.to_pandas()
     assert len(br.to_numpy()) == len(rows)  # numpy only
+
+
+# ----------------------------------------------------------------------------------------------
+# 17. no absolute paths of one machine
+def test_benchmarks_models_and_examples_name_no_absolute_path_of_one_machine():
+    # issue 33, friction 17: benchmarks/network_scale.py read its reference from /work/scratch/...,
+    # absent on a fresh clone; models/bk_chain.toml and benchmarks/reference_chain.py named such paths
+    import re
+
+    root = DOCS.parent
+    pattern = re.compile(r"(?<![\w.])/(?:work|home|Users|scratch|mnt|opt|srv)/[\w.-]+")
+    files = [
+        p
+        for d in ("benchmarks", "models", "examples")
+        for p in (root / d).rglob("*")
+        if p.suffix in {".py", ".toml"}
+    ]
+    assert len(files) > 30
+    found = [(p.relative_to(root), m.group()) for p in files for m in pattern.finditer(p.read_text())]
+    assert found == []
+    text = (root / "benchmarks" / "network_scale.py").read_text()
+    assert "reference_chain.py" in text  # the reference is computed from the repository's own script
