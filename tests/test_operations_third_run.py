@@ -654,3 +654,60 @@ def test_benchmarks_models_and_examples_name_no_absolute_path_of_one_machine():
     assert found == []
     text = (root / "benchmarks" / "network_scale.py").read_text()
     assert "reference_chain.py" in text  # the reference is computed from the repository's own script
+
+
+# ----------------------------------------------------------------------------------------------
+# 11. frc past --max-time: the limit honoured, what was computed written
+@pytest.mark.slow
+def test_frc_workers_that_miss_the_deadline_are_stopped_and_their_pieces_are_gaps(monkeypatch):
+    # issue 33, fault 11: an IDA frc of a 12-contact ring ran past --max-time 900 (one long
+    # integration in a worker does not see the deadline) and was stopped from outside
+    from hybrid.continuation import frc as frc_module
+
+    def deaf(self, a, b, w, progress, on_point):  # a worker that ignores the deadline for 20 s
+        time.sleep(20.0)
+        return frc_module.Piece(a, b, w)  # (would be a covered piece: no gap)
+
+    monkeypatch.setattr(frc_module._PieceJob, "piece", deaf)
+    system = hybrid.resolve_model("absorber")
+    params = system.parameter_values({}, preset="standard")
+    with hybrid.time_limit(1.0):
+        fr = hybrid.frequency_response(system, params, (0.7, 1.4), workers=2)
+    assert len(fr.pieces) >= 2
+    assert all(pc.timed_out and pc.gaps == [(pc.lo, pc.hi)] for pc in fr.pieces)
+    assert (fr.status, fr.reason) == (hybrid.ResponseStatus.INCOMPLETE, "time-limit")
+    assert fr.gaps and fr.gaps[0][0] == 0.7 and fr.gaps[-1][1] == 1.4
+
+
+def test_frc_past_its_time_limit_writes_what_it_computed_without_the_linear_references(
+    tmp_path, capsys, monkeypatch
+):
+    # issue 33, fault 11: the linear references (minutes for a ring of 24 blades) were computed
+    # after the limit, and their set-up then stopped by it: no frc.json, no figure
+    import hybrid.cli.frc as frc_cli
+
+    monkeypatch.setattr(frc_cli, "linear_references", lambda *a, **k: pytest.fail("computed after the limit"))
+    code, out, err = run(
+        [
+            "frc",
+            "absorber",
+            "--integrator",
+            "exact",
+            "--max-time",
+            "0.3",
+            "--no-plot",
+            "--out",
+            tmp_path / "o",
+        ],
+        capsys,
+    )
+    assert code == 1
+    assert "hybrid: the linear references were not computed: the time limit (--max-time) had passed" in err
+    summary = json.loads((tmp_path / "o" / "frc.json").read_text())
+    assert summary["complete"] is False and summary["linear_references"] == {}
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [
+        "frc.csv",
+        "frc.json",
+        "frc_overlays.csv",
+        "frc_special.csv",
+    ]

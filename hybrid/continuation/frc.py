@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -473,6 +474,12 @@ class _PieceJob:
         return piece
 
 
+def _grace(seconds: float) -> float:
+    """How long after the deadline (of ``seconds``) the parent of :func:`_parallel` waits for its
+    workers before it stops them and keeps what is finished [s]: 5 % of the limit, 2 s to 30 s."""
+    return min(30.0, max(2.0, 0.05 * seconds))
+
+
 #: The job of the worker processes of :func:`_parallel` and their channel to the parent (set in the
 #: parent before the workers fork: they read it from its memory).
 _WORKER: dict = {}
@@ -529,6 +536,8 @@ def _parallel(
         elif kind == "done":
             pieces[i] = msg[2]
             running.pop(i).join()
+        elif kind == "flush":
+            pass
         else:
             raise WorkerError(f"frequency response: the worker of piece {i} failed: {msg[2]}")
         while nxt < len(cuts):  # orbits of the pieces whose predecessors are done, in branch order
@@ -541,8 +550,24 @@ def _parallel(
             offset += len(pieces[nxt].branches)
             nxt += 1
 
+    def give_up() -> None:
+        """The deadline passed :func:`_grace` ago and workers still run (one long integration that does not
+        see it): every piece not finished becomes a gap of the time limit (issue 33: an IDA frc of
+        a 12-contact ring ran 60 s past --max-time 900 and was stopped from outside, writing nothing)."""
+        for i in list(running):
+            running.pop(i).terminate()
+        for i in [k for k, p in enumerate(pieces) if p is None]:
+            a, b, w = cuts[i]
+            pieces[i] = Piece(a, b, w, gaps=[(a, b)], timed_out=True)
+            held[i] = []  # (its orbits belong to no branch kept)
+        todo.clear()
+        handle(("flush", -1))
+
     try:
         while todo or running:
+            if deadline is not None and time.monotonic() > deadline[0] + _grace(deadline[1]):
+                give_up()
+                break
             while todo and len(running) < workers:
                 i = todo.pop(0)
                 a, b, w = cuts[i]

@@ -18,7 +18,7 @@ from contextvars import ContextVar
 
 from .errors import BudgetExceeded, InputError
 
-__all__ = ["time_limit", "Budget", "deadline_passed", "limit_text", "check_deadline"]
+__all__ = ["time_limit", "Budget", "deadline_passed", "limit_text", "check_deadline", "no_deadline"]
 
 #: The deadline in force: (clock time, seconds of its time_limit, the option that set it).
 _DEADLINE: ContextVar[tuple[float, float, str] | None] = ContextVar("hybrid_deadline", default=None)
@@ -70,6 +70,17 @@ def time_limit(seconds: float, option: str = "--max-time") -> Iterator[None]:
     token = _DEADLINE.set(
         (deadline, float(seconds), option) if outer is None or deadline < outer[0] else outer
     )
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
+@contextmanager
+def no_deadline() -> Iterator[None]:
+    """No deadline inside the block, whatever is in force outside: for writing what a computation
+    stopped by its deadline has (its files, its figure), which must not be stopped in turn."""
+    token = _DEADLINE.set(None)
     try:
         yield
     finally:

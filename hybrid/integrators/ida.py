@@ -34,6 +34,8 @@ UNKNOWN_FLAG = -99
 
 #: IDA solvers kept per compiled system (by mode, settings and first step).
 MAX_SHARED_SOLVERS = 64
+#: Most IDA steps of one call of a variational solver (it goes on after, within the budget).
+VARIATIONAL_CALL_STEPS = 100
 
 
 def _ida(resfn, opts: dict):
@@ -463,7 +465,9 @@ class IDAVariational:
                 atol=atol,
                 atol_sens=o.rtol,
                 max_step=self.max_step,
-                max_num_steps=min(o.max_num_steps, o.max_steps),
+                # IDA returns every VARIATIONAL_CALL_STEPS steps so that the budget and the deadline
+                # are checked (issue 33: one call of 50,000 steps on a ring of blades ran for minutes)
+                max_num_steps=min(o.max_num_steps, o.max_steps, VARIATIONAL_CALL_STEPS),
             )
             sv.period = self.cs.period
         return sv
