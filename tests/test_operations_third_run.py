@@ -145,6 +145,7 @@ RUN_A = (
 )
 
 
+@pytest.mark.slow
 def test_a_removed_lock_file_costs_no_live_runs_files_nor_the_newcomers_lock(tmp_path):
     # issue 33, fault 4: the newcomer's cleanup removed every staging folder, live ones included,
     # and the first run's release unlinked the newcomer's lock file
@@ -226,6 +227,7 @@ def test_two_threads_writing_one_file_never_share_a_temporary_file(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["f.json"]
 
 
+@pytest.mark.slow
 def test_two_threads_sweeping_into_one_folder_one_refused_the_other_whole(tmp_path):
     # issue 33, fault 5, as the user met it: two threads calling hybrid.sweep into one folder
     system = hybrid.resolve_model("coulomb")
