@@ -20,7 +20,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from .errors import HybridError
+from .errors import HybridError, InputError
 
 __all__ = ["Tabular", "MissingDependency", "table_columns", "to_numpy_table", "to_pandas_table"]
 
@@ -71,7 +71,7 @@ def to_numpy_table(columns: Mapping[str, Iterable]) -> np.ndarray:
     cols = {str(k): _column(v) for k, v in columns.items()}
     n = {len(c) for c in cols.values()}
     if len(n) > 1:
-        raise ValueError(f"columns of different lengths: {sorted(n)}")
+        raise InputError(f"to_numpy: columns of different lengths: {sorted(n)}")
     size = n.pop() if n else 0
     out = np.empty(size, dtype=[(k, c.dtype) for k, c in cols.items()])
     for k, c in cols.items():
@@ -99,11 +99,8 @@ def to_pandas_table(columns: Mapping[str, Iterable]):
 
 
 class Tabular:
-    """``to_numpy()`` and ``to_pandas()`` of a result whose :meth:`table` gives its columns."""
-
-    def table(self) -> dict[str, list | np.ndarray]:  # pragma: no cover - every result defines it
-        """The result's columns: name -> values, one per row."""
-        raise NotImplementedError
+    """``to_numpy()`` and ``to_pandas()`` of a result whose method ``table()`` gives its columns
+    (name -> values, one per row; every subclass defines it)."""
 
     def to_numpy(self) -> np.ndarray:
         """The result as a numpy structured array: one record per row, ``a["name"]`` a column
