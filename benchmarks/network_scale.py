@@ -7,8 +7,9 @@ Siconos benchmark, preset ``standard``):
   one component per contact derived, the system validated), N = 10, 100, 1000, 3000: best of a few;
 * running: ``simulate`` over 50 s from rest with the exact integrator, N = 6, 20, 100, its first
   call (which compiles the composed system) and the switches; with the final displacements against
-  the independent event-driven reference of issue 22 where its results are on this machine
-  (``/work/scratch/siconos/results/ref_N*.json``).
+  the independent event-driven reference of issue 22 (``benchmarks/reference_chain.py``, its exact
+  Taylor backend), computed here the first time and kept in ``docs/networks/reference_chain.json``
+  (shipped: a fresh clone needs nothing else).
 
 Run: ``python benchmarks/network_scale.py`` (several minutes on 2 cores; the machine's load is
 printed with every timing). Writes ``docs/networks/network_scale.json``.
@@ -16,6 +17,7 @@ printed with every timing). Writes ``docs/networks/network_scale.json``.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import time
@@ -28,7 +30,8 @@ import hybrid_models
 from hybrid import Exact, SolverOptions, simulate, system_from_dict
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "networks" / "network_scale.json"
-REFERENCE = Path("/work/scratch/siconos/results")
+#: The final displacements of the independent reference, by N (computed once, then read).
+REFERENCE = OUT.parent / "reference_chain.json"
 BUILD_N = (10, 100, 1000, 3000)
 RUN_N = (6, 20, 100)
 
@@ -37,6 +40,28 @@ def chain(n: int) -> dict:
     data = tomllib.loads((Path(hybrid_models.__file__).parent / "bk_chain.toml").read_text())
     data["cells"]["block"]["count"] = n
     return data
+
+
+def reference_x_end(n: int) -> list[float]:
+    """``x_i(50 s)`` of the chain of N blocks from rest by ``benchmarks/reference_chain.py`` (Taylor
+    backend), from :data:`REFERENCE`, computed and added there if missing."""
+    known = json.loads(REFERENCE.read_text()) if REFERENCE.exists() else {}
+    if str(n) not in known:
+        spec = importlib.util.spec_from_file_location(
+            "reference_chain", Path(__file__).with_name("reference_chain.py")
+        )
+        ref = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(ref)
+        start = time.perf_counter()
+        r = ref.run_taylor(ref.Chain(ref.default_params(n)), 50.0)
+        known[str(n)] = {
+            "x_end": [float(q) for q in r["x"]],
+            "t_end": r["t"],
+            "wall_s": time.perf_counter() - start,
+        }
+        REFERENCE.parent.mkdir(parents=True, exist_ok=True)
+        REFERENCE.write_text(json.dumps(known, indent=1) + "\n")
+    return known[str(n)]["x_end"]
 
 
 def load() -> float:
@@ -82,12 +107,10 @@ def main() -> dict:
             "status": str(tr.status),
             "load": load(),
         }
-        ref = REFERENCE / f"ref_N{n}.json"
-        if ref.exists():
-            x_end = json.loads(ref.read_text())["x_end"]
-            row["x_end_error_vs_reference_m"] = max(
-                abs(tr.final(f"x_{i}") - x_end[i - 1]) for i in range(1, n + 1)
-            )
+        x_end = reference_x_end(n)
+        row["x_end_error_vs_reference_m"] = max(
+            abs(tr.final(f"x_{i}") - x_end[i - 1]) for i in range(1, n + 1)
+        )
         runs.append(row)
         print(
             f"chain N = {n:3d}: build {built:.3f} s, simulate 50 s {wall:7.2f} s, {row['switches']} switches, "

@@ -4,7 +4,7 @@
     m x_i'' = -k x_i + kc (x_{i-1} - x_i) + kc (x_{i+1} - x_i) - c v_i - f_i + F sin(Omega t)
     f_i in R_i Sgn(v_i)   (set-valued; equal static/kinetic levels), free ends.
 
-Written from scratch (numpy/scipy only): no Siconos, nothing from /work/main.
+Written from scratch (numpy/scipy only): no Siconos, nothing from the library ``hybrid``.
 
 Between events every contact is in a fixed mode: stuck (v_i = 0, x_i frozen) or sliding with
 direction s_i = +-1 (f_i = R_i s_i).  The phase dynamics is then LINEAR with constant coefficients

@@ -17,7 +17,7 @@ import numpy as np
 from ..continuation.branch import forcing_parameter, orbit_row
 from ..continuation.frc import Piece, default_range, frequency_response
 from ..continuation.switching import SWITCHABLE, switch_branch
-from ..core.budget import time_limit
+from ..core.budget import deadline_passed, no_deadline, time_limit
 from ..core.errors import HybridError
 from ..core.plain import options_text, plain_data
 from ..core.progress import ProgressBar
@@ -301,7 +301,8 @@ def cmd_frc(args) -> int:
         )
     if fr is None:  # interrupted: the rows written are in place (`wall` is the exit code)
         return wall
-    print(to_json(summary) if args.json else frc_text(fr, preset))
+    with no_deadline():  # (the summary's natural frequencies, after a time limit too)
+        print(to_json(summary) if args.json else frc_text(fr, preset))
     for f in files:
         info(f"wrote {f}")
     n = sum(len(b.points) for b in fr.branches)
@@ -379,9 +380,20 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
             pass
     bar(1.0)
     wall = time.perf_counter() - t0
+    late = deadline_passed()  # (the whole command's --max-time, hybrid.cli.main)
+    with no_deadline():  # what was computed is written, the limit passed or not
+        return _write_frc(
+            args, system, params, preset, par, forcing, lo, hi, out, staged, fr, switched, wall, late
+        )
 
+
+def _write_frc(args, system, params, preset, par, forcing, lo, hi, out, staged, fr, switched, wall, late):
+    """The files of :func:`_run_frc` once the curve is computed: ``(fr, files, summary, wall)``.
+    After the time limit (``late``) the linear references, whose set-up grows with the model, are
+    not computed (issue 33: a ring of 24 blades spent minutes in them past --max-time)."""
     from ..plot.frc import zoom_windows
 
+    csv_path = out / "frc.csv"
     files = [csv_path]
     special = fr.special_rows
     write_rows_csv(
@@ -397,7 +409,10 @@ def _run_frc(args, system, params, preset, par, forcing, lo, hi, options, out, s
             np.concatenate([np.linspace(lo, hi, 2001)] + [np.linspace(a, b, 801) for a, b, _ in zooms])
         )
         overlays = frc_overlays(system, params, grid)
-        references = linear_references(system, params, par, grid)
+        if late and plot_hints(system)["linear_references"]:
+            info("hybrid: the linear references were not computed: the time limit (--max-time) had passed")
+        else:
+            references = linear_references(system, params, par, grid)
         ov_rows = [{par: float(w)} for w in grid]
         for curve, coords in {**overlays, **references}.items():
             for name, values in coords.items():

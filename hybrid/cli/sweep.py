@@ -292,7 +292,7 @@ class _SweepBar:
         self.total = total
         self.failed = failed
 
-    def point(self, index: tuple, result: dict) -> None:
+    def point(self, index: int | tuple, result: dict) -> None:
         self.failed += result["status"] in FAILED
 
     def __call__(self, fraction: float) -> None:

@@ -11,6 +11,7 @@ from ..core.errors import InputError, ModelError
 from ..core.options import ContinuationOptions
 from ..core.plain import options_text
 from ..core.status import BranchStatus
+from ..core.tables import Tabular, table_columns
 from ..integrators.options import SolverOptions
 from ..model.expr import free_symbols
 from ..model.system import HybridSystem
@@ -28,7 +29,7 @@ BRANCH_KINDS = ("forced-orbits", "autonomous-orbits", "equilibria")
 
 
 @dataclass
-class Branch:
+class Branch(Tabular):
     """A branch of solutions continued in one parameter: periodic orbits or equilibria.
 
     Attributes
@@ -99,6 +100,10 @@ class Branch:
     @property
     def stability(self) -> list[str]:
         return [o.stability for o in self.points]
+
+    def table(self) -> dict[str, list]:
+        """The columns of :meth:`to_rows` (for :meth:`to_numpy`, :meth:`to_pandas`)."""
+        return table_columns(self.to_rows())
 
     def to_rows(self) -> list[dict]:
         """One dict per point (for CSV)."""

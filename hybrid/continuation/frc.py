@@ -15,6 +15,7 @@ import math
 import multiprocessing
 import os
 import signal
+import time
 from collections.abc import Callable, Mapping
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from ..core.notices import collected
 from ..core.options import ContinuationOptions, reject_keywords
 from ..core.plain import options_text
 from ..core.status import BranchStatus, ResponseStatus
+from ..core.tables import Tabular, table_columns
 from ..core.threads import with_blas_threads
 from ..core.workers import ProcessPool, run_calls, send
 from ..integrators.options import SolverOptions
@@ -63,12 +65,34 @@ def resonances(system: HybridSystem, params: Mapping[str, float]) -> np.ndarray:
 
 
 def default_range(system: HybridSystem, params: Mapping[str, float]) -> tuple[float, float]:
-    """``(0.8 min, 1.2 max)`` of the natural frequencies of :func:`resonances` [rad/s].
+    """The default range of a frequency response: ``(0.8 min, 1.2 max)`` of the natural
+    frequencies of :func:`resonances` [rad/s].
+
+    Parameters
+    ----------
+    system : HybridSystem
+        A model with a forcing period.
+    params : mapping of str to float
+        Its parameter values.
+
+    Returns
+    -------
+    (float, float)
+        The range's ends [rad/s].
 
     Raises
     ------
     ValueError
-        If the linearisations have no oscillating mode.
+        If the linearisations have no oscillating mode (give the range instead).
+
+    Examples
+    --------
+    >>> import hybrid
+    >>> from hybrid.continuation.frc import default_range
+    >>> ab = hybrid.resolve_model("absorber")
+    >>> lo, hi = default_range(ab, ab.parameter_values({}, preset="standard"))
+    >>> 0 < lo < hi
+    True
     """
     w = resonances(system, params)
     if w.size == 0:
@@ -113,7 +137,7 @@ class Piece:
 
 
 @dataclass
-class FrequencyResponse:
+class FrequencyResponse(Tabular):
     """Result of :func:`frequency_response`.
 
     Attributes
@@ -159,6 +183,12 @@ class FrequencyResponse:
     limit: str = "hybrid.time_limit; CLI --max-time"
     options: SolverOptions | None = None
     settings: ContinuationOptions | None = None
+
+    def table(self) -> dict[str, list]:
+        """One row per orbit of every branch, in order of the range: the branch's number
+        (``branch``) and :meth:`hybrid.Branch.to_rows`'s columns (for :meth:`to_numpy`,
+        :meth:`to_pandas`)."""
+        return table_columns({"branch": k, **r} for k, b in enumerate(self.branches) for r in b.to_rows())
 
     @property
     def branches(self) -> list[Branch]:
@@ -470,6 +500,12 @@ class _PieceJob:
         return piece
 
 
+def _grace(seconds: float) -> float:
+    """How long after the deadline (of ``seconds``) the parent of :func:`_parallel` waits for its
+    workers before it stops them and keeps what is finished [s]: 5 % of the limit, 2 s to 30 s."""
+    return min(30.0, max(2.0, 0.05 * seconds))
+
+
 def _piece_in_worker(job: _PieceJob, index: int, a: float, b: float, w: float | None, deadline) -> Piece:
     """Piece ``index`` in a worker of a :class:`hybrid.core.workers.ProcessPool`: the worker's pid,
     then its progress and its orbits sent to the parent as they come; the piece returned."""
@@ -529,6 +565,15 @@ class _Relay:
             f"frequency response: the worker of piece {k} ended without a result (exit code {code})"
         )
 
+    def give_up(self, left: list[int]) -> None:
+        """The pieces ``left`` (not finished by the time limit) become gaps of the time limit,
+        their orbits dropped (they belong to no branch kept)."""
+        for i in left:
+            a, b, w = self.cuts[i]
+            self.pieces[i] = Piece(a, b, w, gaps=[(a, b)], timed_out=True)
+            self.held[i] = []
+        self._pass_on()
+
     def _pass_on(self) -> None:
         """The orbits of the pieces whose predecessors are done, in branch order."""
         while self.next < len(self.cuts):
@@ -552,15 +597,26 @@ def _parallel(
     shared(job.system)  # the job and the workers' results refer to it
     deadline = current_deadline()
     calls = [(job, i, a, b, w, deadline) for i, (a, b, w) in enumerate(cuts)]
+
+    def past_grace() -> bool:
+        """The deadline passed :func:`_grace` ago and workers still run (one long integration that
+        does not see it): stop them (issue 33: an IDA frc of a 12-contact ring ran 60 s past
+        --max-time 900 and was stopped from outside, writing nothing)."""
+        return deadline is not None and time.monotonic() > deadline[0] + _grace(deadline[1])
+
     with ProcessPool(workers) as pool:
         relay = _Relay(cuts, lo, hi, progress, on_point, pool)
-        run_calls(
+        left = run_calls(
             pool,
             _piece_in_worker,
             calls,
             on_result=relay.done,
             on_error=relay.failed,
             on_message=relay.message,
+            stop=past_grace,
             started=while_computing,
         )
+        if left:
+            pool.kill()  # the workers still computing: what they did is lost
+        relay.give_up(left)
     return relay.pieces

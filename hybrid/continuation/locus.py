@@ -30,6 +30,7 @@ from ..core.errors import HybridError, InputError, InputTypeError
 from ..core.notices import collected
 from ..core.options import ContinuationOptions, reject_keywords
 from ..core.status import BranchStatus, LocateStatus
+from ..core.tables import Tabular, table_columns
 from ..integrators.options import SolverOptions
 from ..orbits.autonomous import autonomous_orbit
 from ..orbits.equilibria import equilibrium, locate_hopf
@@ -88,7 +89,7 @@ class LocusPoint:
 
 
 @dataclass
-class Locus:
+class Locus(Tabular):
     """The locus of a special point in a parameter plane (:func:`continue_locus`).
 
     Attributes
@@ -128,6 +129,10 @@ class Locus:
     def values(self, name: str) -> np.ndarray:
         """The parameter ``name``'s value at every point."""
         return np.array([q.values[name] for q in self.points], dtype=float)
+
+    def table(self) -> dict[str, list]:
+        """The columns of :meth:`to_rows` (for :meth:`to_numpy`, :meth:`to_pandas`)."""
+        return table_columns(self.to_rows())
 
     def to_rows(self) -> list[dict]:
         """One dict per point (for CSV)."""

@@ -621,6 +621,18 @@ def rounding_margin(pts, p: float) -> float:
     ``eps |p| cond`` (cond 800 to 19000 there, ``eps |p| cond`` 1.5e-13 to 4e-12; the next largest
     0.17). The safety factor is four times the largest. (One bracketed point there, the
     isolator's at R = 3 on a window of 1e-7, missed by 2.8e-10: not rounding, not covered.)
+
+    Parameters
+    ----------
+    pts : iterable
+        The points next to it, each with an ``orbit`` (a :class:`hybrid.PeriodicOrbit`).
+    p : float
+        The point's parameter value.
+
+    Returns
+    -------
+    float
+        The margin [parameter units], added to each side of the point's interval.
     """
     eps = float(np.finfo(float).eps)
     cond = 0.0

@@ -18,7 +18,7 @@ from contextvars import ContextVar
 
 from .errors import BudgetExceeded, InputError
 
-__all__ = ["time_limit", "Budget", "deadline_passed", "limit_text"]
+__all__ = ["time_limit", "Budget", "deadline_passed", "limit_text", "check_deadline", "no_deadline"]
 
 #: The deadline in force: (clock time, seconds of its time_limit, the option that set it).
 _DEADLINE: ContextVar[tuple[float, float, str] | None] = ContextVar("hybrid_deadline", default=None)
@@ -37,6 +37,9 @@ _clock = time.monotonic  # module-level so that tests can drive it
 def time_limit(seconds: float, option: str = "--max-time") -> Iterator[None]:
     """Deadline for every integration started inside the block (nested limits: the earliest wins).
 
+    The set-up of a large model started inside the block (compiling functions of thousands of
+    operations, assembling a residual of hundreds of rows) raises :class:`BudgetExceeded` when the
+    deadline passes during it (:func:`check_deadline`).
     A run that reaches it stops with ``Status.TIME_LIMIT``; :func:`hybrid.periodic_orbit`
     returns a failed orbit (``reason`` ``"budget"``), a continuation branch stops (``reason``
     ``"budget"``), and :func:`hybrid.continuation.frc.frequency_response` returns what it has
@@ -73,6 +76,17 @@ def time_limit(seconds: float, option: str = "--max-time") -> Iterator[None]:
         _DEADLINE.reset(token)
 
 
+@contextmanager
+def no_deadline() -> Iterator[None]:
+    """No deadline inside the block, whatever is in force outside: for writing what a computation
+    stopped by its deadline has (its files, its figure), which must not be stopped in turn."""
+    token = _DEADLINE.set(None)
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
 def limit_text(deadline: tuple | None = None) -> str:
     """Where the deadline in force (or ``deadline``) comes from, for messages:
     ``"hybrid.time_limit; CLI --max-time"``."""
@@ -102,6 +116,24 @@ def deadline_passed() -> bool:
     """True inside a :func:`time_limit` block whose deadline has passed."""
     d = _DEADLINE.get()
     return d is not None and _clock() >= d[0]
+
+
+def check_deadline(what: str) -> None:
+    """Raise :class:`BudgetExceeded` (``kind`` ``"time"``) if the deadline in force has passed:
+    for the set-up of a model (reading, compiling), which no integration's budget covers.
+
+    Parameters
+    ----------
+    what : str
+        What was being done, for the message (e.g. ``"compiling the model's residual"``).
+    """
+    d = _DEADLINE.get()
+    if d is not None and _clock() >= d[0]:
+        raise BudgetExceeded(
+            "time",
+            f"time limit reached: the computation's limit of {d[1]:g} s ({limit_text(d)}) ran out while "
+            f"{what}; give it more time ({d[2]}) or a smaller model",
+        )
 
 
 class Budget:

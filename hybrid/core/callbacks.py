@@ -10,7 +10,8 @@
     Called with every result as it is produced, in order, and where it belongs: a periodic
     orbit and the index of its branch in the result (:func:`hybrid.continue_orbits`: always 0;
     :func:`hybrid.frequency_response`: the index in ``FrequencyResponse.branches``), or a
-    sweep's point result (the dict of its file) and its index in the grid (a tuple). E.g. to
+    sweep's point result (the dict of its file) and its index in the grid (an int on a grid of
+    one axis, a tuple of ints on several). E.g. to
     write each at once, so that an interrupted computation keeps what it did.
 
 An exception raised by a callback propagates unchanged.

@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from .errors import InputError
-from .files import MIN_FREE_BYTES, FolderLock, OutputFiles, free_bytes, os_error_text
+from .files import MIN_FREE_BYTES, FolderLock, OutputFiles, free_bytes, os_error_text, unique_tag
 
 __all__ = [
     "UsageError",
@@ -137,7 +137,7 @@ def writable_folder(out: Path) -> Path:
         if out.exists() and not out.is_dir():
             raise UsageError(f"`--out {out}`: exists and is not a folder")
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".hybrid-write-test-{os.getpid()}"
+        probe = out / f".hybrid-write-test-{unique_tag()}"
         fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         os.close(fd)
         probe.unlink()

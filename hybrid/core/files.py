@@ -24,11 +24,13 @@ path, the cause and what to do (:func:`os_error_text`).
 from __future__ import annotations
 
 import errno
+import itertools
 import json
 import os
 import shutil
 import socket
 import stat
+import threading
 import time
 from collections.abc import Iterable
 from pathlib import Path
@@ -53,10 +55,35 @@ __all__ = [
 
 #: The lock file of an output folder.
 LOCK_NAME = ".hybrid.lock"
-#: Prefix of a run's staging folder inside its output folder (``.hybrid-run-PID``).
+#: Prefix of a run's staging folder inside its output folder (``.hybrid-run-PID-N``).
 STAGING_PREFIX = ".hybrid-run-"
-#: Suffix of the temporary files of :func:`write_atomic` (``.NAME.PID.tmp``).
+#: Suffix of the temporary files of :func:`write_atomic` (``.NAME.PID-N.tmp``).
 TMP_SUFFIX = ".tmp"
+#: Seconds a run waits for a folder whose recorded holder has died while processes it started
+#: (its workers, still exiting) hold the lock on, before it is refused.
+DEAD_HOLDER_WAIT = 10.0
+
+_serial = itertools.count()
+
+
+def unique_tag() -> str:
+    """``PID-N``: a name part no other write of this process or of any live process uses (``N``
+    counts per process, so two threads never share it); :meth:`FolderLock._clean` reads the
+    ``PID`` back to tell a dead run's leftovers from a live run's."""
+    return f"{os.getpid()}-{next(_serial)}"
+
+
+def _owner_pid(name: str) -> int | None:
+    """The pid that wrote a staging folder or temporary file named ``name`` (None if unreadable):
+    ``.hybrid-run-PID[-N]`` or ``.NAME.PID[-N].tmp``."""
+    if name.startswith(STAGING_PREFIX):
+        tag = name[len(STAGING_PREFIX) :]
+    else:
+        tag = name[: -len(TMP_SUFFIX)].rsplit(".", 1)[-1]
+    head = tag.split("-", 1)[0]
+    return int(head) if head.isdigit() else None
+
+
 #: A folder with less free space than this is refused before any computation [bytes].
 MIN_FREE_BYTES = 64 * 1024
 
@@ -176,7 +203,7 @@ def write_atomic(path: str | Path, data: str | bytes) -> Path:
         The write or the rename failed (a full disk, no permission, a folder at ``path``, ...).
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}{TMP_SUFFIX}")
+    tmp = path.with_name(f".{path.name}.{unique_tag()}{TMP_SUFFIX}")
     raw = data.encode() if isinstance(data, str) else bytes(data)
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
@@ -218,9 +245,34 @@ def free_bytes(folder: str | Path) -> tuple[int, int | None]:
 
 # ----------------------------------------------------------------------------------------------
 # The lock
-#: Folders locked by this process: (st_dev, st_ino) -> [FolderLock, depth] (the lock is re-entrant
-#: within a process: the command holds it and :func:`hybrid.sweep` takes it again).
-_HELD: dict[tuple[int, int], list] = {}
+#: Folders locked by each thread: (st_dev, st_ino) -> [FolderLock, depth] (the lock is re-entrant
+#: within a thread: the command holds it and :func:`hybrid.sweep` takes it again; another thread,
+#: another run, is refused as another process is).
+_THREAD = threading.local()
+#: Descriptors of every lock this process holds (closed in a forked child: a worker never keeps its
+#: parent's folder locked once the parent is gone).
+_FDS: set[int] = set()
+
+
+def _held() -> dict[tuple[int, int], list]:
+    held = getattr(_THREAD, "held", None)
+    if held is None:
+        held = _THREAD.held = {}
+    return held
+
+
+def _after_fork_in_child() -> None:
+    for fd in list(_FDS):
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    _FDS.clear()
+    _THREAD.held = {}
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 def _alive(pid: int) -> bool:
@@ -292,8 +344,9 @@ class FolderLock:
         except OSError as exc:
             raise OutputError(os_error_text(exc, self.folder), exc.errno) from None
         key = (st.st_dev, st.st_ino)
-        if key in _HELD:
-            _HELD[key][1] += 1
+        held = _held()
+        if key in held:
+            held[key][1] += 1
             self._key = key
             return self
         try:
@@ -301,7 +354,7 @@ class FolderLock:
         except OSError as exc:
             raise OutputError(os_error_text(exc, self.path), exc.errno) from None
         self._key = key
-        _HELD[key] = [self, 1]
+        held[key] = [self, 1]
         self.removed = self._clean()
         if previous and (self.removed or previous.get("pid") != os.getpid()):
             self.stale = previous
@@ -336,7 +389,7 @@ class FolderLock:
                         "remove it, or choose another output folder (--out)"
                     )
                 try:
-                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    self._flock(fd)
                 except BlockingIOError:
                     raise FolderInUse(self._in_use(_read_holder(fd))) from None
                 try:  # the file may have been removed (and another made) since it was opened
@@ -350,12 +403,35 @@ class FolderLock:
                 os.ftruncate(fd, 0)
                 os.pwrite(fd, (json.dumps(self._holder()) + "\n").encode(), 0)
                 self._fd = fd
+                _FDS.add(fd)
                 return previous
             except BaseException:
                 if self._fd != fd:
                     os.close(fd)
                 raise
         raise FolderInUse(f"{str(self.folder)!r}: its lock keeps changing hands; try again")
+
+    @staticmethod
+    def _flock(fd: int) -> None:
+        """``flock`` at once; while the holder recorded in the file is a process of this host that
+        has ended (its workers still exiting hold the lock), retried for up to
+        :data:`DEAD_HOLDER_WAIT` seconds. Raises :class:`BlockingIOError` if still held."""
+        end = time.monotonic() + DEAD_HOLDER_WAIT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except BlockingIOError:
+                holder = _read_holder(fd)
+                pid = holder.get("pid")
+                dead = (
+                    isinstance(pid, int)
+                    and holder.get("host", socket.gethostname()) == socket.gethostname()
+                    and not _alive(pid)
+                )
+                if not dead or time.monotonic() >= end:
+                    raise
+                time.sleep(0.1)
 
     def _lock_exclusive(self) -> dict | None:  # pragma: no cover - platforms without fcntl
         for _ in range(2):
@@ -378,6 +454,18 @@ class FolderLock:
         raise FolderInUse(self._in_use({}))
 
     def _in_use(self, holder: dict) -> str:
+        pid = holder.get("pid")
+        if (
+            isinstance(pid, int)
+            and holder.get("host", socket.gethostname()) == socket.gethostname()
+            and not _alive(pid)
+        ):
+            return (
+                f"output folder {str(self.folder)!r} is still locked by processes that the run pid {pid}"
+                + (f" (`{holder['command']}`)" if holder.get("command") else "")
+                + f" started, though that run has ended (waited {DEAD_HOLDER_WAIT:g} s for them): wait for "
+                "them to exit (or stop them), or choose another folder (--out)"
+            )
         who = ""
         if holder:
             who = f" (pid {holder.get('pid')}" + (
@@ -391,13 +479,17 @@ class FolderLock:
         )
 
     def _clean(self) -> list[str]:
-        """Remove what runs killed in this folder left: staging folders and temporary files."""
+        """Remove what runs killed in this folder left: staging folders and temporary files whose
+        process is gone (those of a live process, a run whose lock file was removed under it, stay)."""
         removed = []
         try:
             entries = list(os.scandir(self.folder))
         except OSError:
             return removed
         for e in entries:
+            pid = _owner_pid(e.name)
+            if pid is not None and _alive(pid):
+                continue
             try:
                 if e.name.startswith(STAGING_PREFIX) and e.is_dir(follow_symlinks=False):
                     shutil.rmtree(e.path)
@@ -416,20 +508,24 @@ class FolderLock:
     def release(self) -> None:
         if self._key is None:
             return
-        entry = _HELD.get(self._key)
+        held = _held()
+        entry = held.get(self._key)
         self._key, key = None, self._key
         if entry is None:
             return
         entry[1] -= 1
         if entry[1] > 0:
             return
-        del _HELD[key]
+        del held[key]
         owner = entry[0]
         if owner._fd is not None:
-            try:
-                os.unlink(owner.path)  # before the lock goes: no one locks a file that is gone
+            try:  # its own lock file only: another run's, made after this one's was removed, stays
+                mine, there = os.fstat(owner._fd), os.lstat(owner.path)
+                if (mine.st_dev, mine.st_ino) == (there.st_dev, there.st_ino):
+                    os.unlink(owner.path)  # before the lock goes: no one locks a file that is gone
             except OSError:
                 pass
+            _FDS.discard(owner._fd)
             os.close(owner._fd)
             owner._fd = None
 
@@ -496,7 +592,7 @@ class OutputFiles:
             self.lock.acquire()
         try:
             self.check()
-            self.staging = self.folder / f"{STAGING_PREFIX}{os.getpid()}"
+            self.staging = self.folder / f"{STAGING_PREFIX}{unique_tag()}"
             try:
                 if self.staging.exists():
                     shutil.rmtree(self.staging)

@@ -15,6 +15,7 @@ saying which object takes it (:func:`reject_keywords`).
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, fields, is_dataclass, replace
 
@@ -22,6 +23,7 @@ from .errors import InputError, InputTypeError
 
 __all__ = [
     "check_positive",
+    "plain_number",
     "NewtonOptions",
     "ShootingOptions",
     "ContinuationOptions",
@@ -29,6 +31,33 @@ __all__ = [
     "reject_keywords",
     "MIN_SAMPLES",
 ]
+
+
+def _plain(value):
+    """A numpy scalar as the Python number it holds (``np.float32(1e-8)`` -> ``1e-08``, ``np.int64(1)``
+    -> ``1``; issue 33): the checks below and every reader of an option see plain numbers. A numpy
+    bool stays as it is (it is not a number here); anything else is returned unchanged."""
+    if isinstance(value, numbers.Number) and type(value).__module__ == "numpy":
+        return value.item()
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
+
+
+def plain_number(value):
+    """``value`` with numpy scalars turned into the Python numbers they hold (``np.float32(1e-8)``
+    -> ``1e-08``; mappings entry by entry), for options classes outside this module (issue 33)."""
+    return _plain(value)
+
+
+def _plain_fields(obj) -> None:
+    """Every field of the frozen dataclass ``obj`` through :func:`_plain`."""
+    for f in fields(obj):
+        if f.init:
+            v = getattr(obj, f.name)
+            w = _plain(v)
+            if w is not v:
+                object.__setattr__(obj, f.name, w)
 
 
 def _positive(name: str, value, *, allow_none: bool = False, owner: str = "SolverOptions") -> None:
@@ -104,6 +133,7 @@ class NewtonOptions:
     max_iter: int = 30
 
     def __post_init__(self):
+        _plain_fields(self)
         _positive("tol", self.tol, owner="NewtonOptions")
         _integer("NewtonOptions", "max_iter", self.max_iter, 1)
 
@@ -129,6 +159,7 @@ class ShootingOptions:
     samples_per_period: int = 512
 
     def __post_init__(self):
+        _plain_fields(self)
         _nested("ShootingOptions", "newton", self.newton, NewtonOptions)
         _integer("ShootingOptions", "transient_periods", self.transient_periods, 0)
         check_samples(self.samples_per_period, "ShootingOptions")
@@ -204,6 +235,7 @@ class ContinuationOptions:
     samples_per_period: int = 64
 
     def __post_init__(self):
+        _plain_fields(self)
         _nested("ContinuationOptions", "newton", self.newton, NewtonOptions)
         for name in ("ds", "ds_min", "ds_max", "step_tol", "locate_tol", "max_growth", "max_angle"):
             v = getattr(self, name)

@@ -32,6 +32,10 @@ __all__ = ["blas_threads", "with_blas_threads", "new_process", "BLAS_THREADS_ENV
 #: Environment variable: BLAS threads while the engine computes (default 1; 0: not limited).
 BLAS_THREADS_ENV = "HYBRID_BLAS_THREADS"
 
+#: Most BLAS threads ``HYBRID_BLAS_THREADS`` may ask for (the libraries take a C ``int``; no machine
+#: has more cores).
+MAX_BLAS_THREADS = 4096
+
 _state = threading.local()
 _controller = None
 _modules = -1  # len(sys.modules) when the controller was made
@@ -46,9 +50,10 @@ def _limit() -> int:
         value = int(text)
     except ValueError:
         value = -1
-    if value < 0:
+    if not 0 <= value <= MAX_BLAS_THREADS:
         raise InputError(
-            f"{BLAS_THREADS_ENV}={text!r}: give a number of threads >= 1, or 0 to leave BLAS as it is"
+            f"{BLAS_THREADS_ENV}={text[:40]!r}: give a number of threads from 1 to {MAX_BLAS_THREADS}, "
+            "or 0 to leave BLAS as it is"
         )
     return value
 

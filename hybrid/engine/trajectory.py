@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.plain import options_text
+from ..core.tables import Tabular
 from ..integrators.options import SolverOptions
 
 __all__ = ["Status", "TransitionRecord", "Trajectory", "switch_groups"]
@@ -85,7 +86,7 @@ def switch_groups(events) -> list[list[TransitionRecord]]:
 
 
 @dataclass(frozen=True)
-class Trajectory:
+class Trajectory(Tabular):
     """A simulated trajectory of a hybrid system.
 
     A run streamed to a sink keeps only its last samples and switches (a
@@ -201,6 +202,17 @@ class Trajectory:
     def final(self, name: str) -> float:
         """Value of variable ``name`` at ``t_final``."""
         return float(self.y_final[self.names.index(name)])
+
+    def table(self) -> dict[str, np.ndarray]:
+        """One row per sample: ``t``, ``mode``, every variable, every output (the columns of
+        ``trajectory.csv``; for :meth:`to_numpy`, :meth:`to_pandas`)."""
+        cols: dict[str, np.ndarray] = {
+            "t": np.asarray(self.t, dtype=float),
+            "mode": np.asarray(self.mode, dtype=str),
+        }
+        cols.update({n: np.asarray(self.y[:, i], dtype=float) for i, n in enumerate(self.names)})
+        cols.update({k: np.asarray(v, dtype=float) for k, v in self.outputs.items() if k not in cols})
+        return cols
 
     def mode_intervals(self) -> list[tuple[float, float, str]]:
         """``(t_start, t_end, mode)`` of every phase of the kept window, from the event log (exact switch times)."""

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.polynomial import chebyshev as cheb
 
 from ..core.errors import InputError, InputTypeError, NotAffineError
-from ..core.options import check_positive
+from ..core.options import check_positive, plain_number
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
 from .affine import AffineMode, affine_flows
@@ -754,6 +754,7 @@ class Exact(Method):
                     else "is not a setting of Exact (its one setting: guard_noise)"
                 )
             )
+        guard_noise = plain_number(guard_noise)
         check_positive("Exact", "guard_noise", guard_noise)
         object.__setattr__(self, "guard_noise", guard_noise)
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..core.budget import Budget
 from ..core.errors import BudgetExceeded, InputError, InputTypeError, IntegratorError
-from ..core.options import check_positive
+from ..core.options import check_positive, plain_number
 from ..model.compiled import CompiledMode, CompiledSystem
 from ..model.linear import fast_dynamics
 from .base import ROOT, SUCCESS, TSTOP, Method, StepResult
@@ -39,6 +39,8 @@ UNKNOWN_FLAG = -99
 
 #: IDA solvers kept per compiled system (by mode, settings and first step).
 MAX_SHARED_SOLVERS = 64
+#: Most IDA steps of one call of a variational solver (it goes on after, within the budget).
+VARIATIONAL_CALL_STEPS = 100
 
 
 def _ida(resfn, opts: dict):
@@ -450,7 +452,9 @@ class IDAVariational:
                 atol=atol,
                 atol_sens=o.rtol,
                 max_step=self.max_step,
-                max_num_steps=min(o.max_num_steps, self.options.max_steps),
+                # IDA returns every VARIATIONAL_CALL_STEPS steps so that the budget and the deadline
+                # are checked (issue 33: one call of 50,000 steps on a ring of blades ran for minutes)
+                max_num_steps=min(o.max_num_steps, self.options.max_steps, VARIATIONAL_CALL_STEPS),
             )
             sv.period = self.cs.period
         return sv
@@ -511,6 +515,9 @@ class IDA(Method):
                 f"IDA: no setting {', '.join(map(repr, unexpected))}; settings: rtol, atol, atol_default, "
                 "max_num_steps, guard_noise (the run's budgets and step bound are SolverOptions')"
             )
+        rtol, atol, atol_default, max_num_steps, guard_noise = (
+            plain_number(v) for v in (rtol, atol, atol_default, max_num_steps, guard_noise)
+        )
         check_positive("IDA", "rtol", rtol)
         if not 1e-14 <= rtol <= 1e-2:
             raise InputError(f"IDA: `rtol` must lie in [1e-14, 1e-2], got {rtol!r}")

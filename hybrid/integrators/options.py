@@ -21,7 +21,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 
 from ..core.errors import InputError, InputTypeError
-from ..core.options import check_positive
+from ..core.options import check_positive, plain_number
 from .base import Method
 from .ida import IDA
 from .registry import METHODS
@@ -126,6 +126,10 @@ class SolverOptions:
                 "SolverOptions: `method` must be an integration method such as hybrid.IDA(rtol=1e-8) or "
                 f"hybrid.Exact(), got {method!r}"
             )
+        max_step, max_steps, max_wall_time, zeno_count, zeno_window, max_chain, taylor_order = (
+            plain_number(v)
+            for v in (max_step, max_steps, max_wall_time, zeno_count, zeno_window, max_chain, taylor_order)
+        )
         values = dict(
             method=method,
             max_step=max_step,

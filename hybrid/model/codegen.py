@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from ..core.budget import check_deadline
 from ..core.errors import ExpressionError, InputError
 from .expr import (
     _FUNC_FLOAT,
@@ -144,7 +145,9 @@ def compile_many(
     def ref(node: Expr) -> ast.expr:
         return refs[node]
 
-    for node in postorder(exprs):
+    for k, node in enumerate(postorder(exprs)):
+        if k and not k & 4095:  # a large model's set-up honours the deadline in force (--max-time)
+            check_deadline(f"compiling the model's function `{name}`")
         op, args = node.op, node.args
         if op == "num":
             refs[node] = ast.Constant(args[0])

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..core.budget import check_deadline
 from ..core.errors import AlgebraicSolveError, InputTypeError
 from .codegen import compile_many
 from .expr import ZERO, Expr, add, diff, free_symbols, mul, num, sub, substitute, sym
@@ -167,6 +168,8 @@ class ComposedForm:
         rows: list[Expr] = []
         grows: list[Expr] = []  # the same without y' (dF/dy, dF/dt)
         for i in range(n):
+            if i and not i & 255:
+                check_deadline("assembling the model's residual")
             part = 0 if i >= n - nfree else owner[i]
             terms, gterms = [], []
             for local, (is_d, e) in enumerate(self.alt[i]):
@@ -180,6 +183,8 @@ class ComposedForm:
         # dF/dy: every entry that may be non-zero in some mode, as one function.
         terms: list[tuple[int, int, Expr]] = []
         for i, e in enumerate(grows):
+            if i and not i & 63:
+                check_deadline("differentiating the model's residual")
             for nm in sorted(free_symbols(e) & index.keys(), key=index.__getitem__):
                 d = diff(e, nm)
                 if not (d.op == "num" and d.args[0] == 0.0):

@@ -30,7 +30,19 @@ LOG_SPAN = 20.0
 
 
 def optimum(res: SweepResult) -> dict | None:
-    """The point with the lowest peak among the ``bounded`` ones (None if there is none)."""
+    """The design optimum of a sweep: the point with the lowest peak among the ``bounded`` ones.
+
+    Parameters
+    ----------
+    res : SweepResult
+        A sweep read back (:func:`hybrid.load_sweep`) or returned by :func:`hybrid.sweep`.
+
+    Returns
+    -------
+    dict or None
+        The point's result (``values``, ``peak`` [the coordinate's unit], ``peak_at`` [rad/s],
+        ...), or None where no point is ``bounded`` (an unbounded point has no peak).
+    """
     ok = [r for r in res.points.values() if r["status"] == "bounded" and r.get("peak") is not None]
     return min(ok, key=lambda r: r["peak"]) if ok else None
 

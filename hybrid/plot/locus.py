@@ -34,8 +34,24 @@ _COLOUR = {
 
 
 def locus_figure(loci: list, branches: list, coord: str | None = None) -> Figure:
-    """The figure (see the module docstring): ``loci`` (:class:`hybrid.Locus`) over ``branches``
-    (the :class:`hybrid.Branch` objects they came from, drawn once each)."""
+    """The figure of ``hybrid locus``: the branch above, the parameter plane below (see the module
+    docstring).
+
+    Parameters
+    ----------
+    loci : list of hybrid.Locus
+        The loci (:func:`hybrid.continue_locus`), drawn in the plane of their two parameters.
+    branches : list of hybrid.Branch
+        The one-parameter branches they came from, drawn once each.
+    coord : str, optional
+        The variable or output whose half peak-to-peak amplitude the branch shows (default: the
+        first state variable of its orbits).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        On an Agg canvas (no pyplot state).
+    """
     fig = _new_figure((8.0, 8.0))
     ax_b, ax_p = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [1, 1.4]})
     p1, p2 = loci[0].parameters if loci else (branches[0].parameter, "")
@@ -82,7 +98,19 @@ def locus_figure(loci: list, branches: list, coord: str | None = None) -> Figure
 
 
 def plot_locus(loci: list, branches: list, path, coord: str | None = None) -> Path:
-    """Write :func:`locus_figure` to ``path`` (PNG); returns the path."""
+    """Write :func:`locus_figure` of ``loci`` over ``branches`` to ``path`` (PNG, 120 dpi).
+
+    Parameters
+    ----------
+    loci, branches, coord
+        As :func:`locus_figure`.
+    path : str or Path
+        The PNG file.
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     locus_figure(loci, branches, coord).savefig(path, dpi=120)
     return path

@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import os
 import re
 import socket
@@ -50,6 +51,7 @@ from ..core.notices import collected
 from ..core.options import ContinuationOptions
 from ..core.plain import options_text
 from ..core.status import PointStatus, ResponseStatus
+from ..core.tables import Tabular, table_columns
 from ..core.version import __version__
 from ..core.workers import run_calls
 from ..engine.io import to_json
@@ -131,7 +133,8 @@ class Axis:
 
 
 def _finite(name: str, what: str, v: float) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+    # any real number, numpy's scalars included (np.float32, np.int64: issue 33)
+    if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real) or not math.isfinite(v):
         raise InputError(f"axis `{name}`: {what} must be a finite number, got {v!r}")
     return float(v)
 
@@ -470,7 +473,7 @@ def _options_dict(o) -> dict:
 
 
 @dataclass
-class SweepResult:
+class SweepResult(Tabular):
     """A sweep's folder as read back: its manifest and the result of every finished point.
 
     Attributes
@@ -518,6 +521,18 @@ class SweepResult:
     def complete(self) -> bool:
         """Every point of the grid has a result."""
         return len(self.points) == math.prod(self.shape)
+
+    def table(self) -> dict[str, list]:
+        """One row per finished point, in grid order: ``index`` (one column per axis, e.g.
+        ``index.R``), the axes' ``values`` (``values.R``) and the rest of its file (for
+        :meth:`to_numpy`, :meth:`to_pandas`)."""
+        names = [a["name"] for a in self.manifest["axes"]]
+        rows = []
+        for index in sorted(self.points):
+            r = dict(self.points[index])
+            r["index"] = dict(zip(names, (int(i) for i in index), strict=True))
+            rows.append(r)
+        return table_columns(rows)
 
     def counts(self) -> dict[str, int]:
         """Points per status (:data:`STATUSES`), and ``missing``."""
@@ -800,7 +815,8 @@ def sweep(
         too), once before the first point is computed and after every point.
     on_point : callable, optional
         ``on_point(index, result)`` with every point computed here, as it is written (its grid
-        index, a tuple, and the dict of its file), before ``progress`` (:mod:`hybrid.core.callbacks`).
+        index: an int on a grid of one axis, else a tuple of ints, one per axis; and the dict of
+        its file), before ``progress`` (:mod:`hybrid.core.callbacks`).
     heartbeat : callable, optional
         With an executor: called here about once a second while points are computed (e.g. to
         check that a cluster still has workers); an exception it raises stops the sweep (the
@@ -856,6 +872,11 @@ def sweep(
     ):
         raise InputError(
             f"sweep: `point_time_limit` must be a number of seconds > 0, got {point_time_limit!r}"
+        )
+    if not isinstance(folder, str | os.PathLike) or not str(folder).strip():
+        raise InputError(
+            f"sweep: `folder` must name a folder (a str or a Path), got {folder!r}: the sweep writes its "
+            "manifest and point files there"
         )
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -983,8 +1004,8 @@ def _run(
         write_atomic(folder / _point_name(index), to_json(result) + "\n")
         res.points[index] = json.loads(to_json(result))
         res.computed.append(index)
-        if on_point is not None:
-            on_point(index, res.points[index])
+        if on_point is not None:  # a one-axis grid's index as an int (issue 33), as numpy's
+            on_point(index[0] if len(index) == 1 else index, res.points[index])
         if progress is not None:
             progress(len(res.points) / total)
 

@@ -744,8 +744,9 @@ def test_sweep_calls_progress_with_a_fraction_and_on_point_with_index_and_result
     kw = {"p_range": (0.8, 0.82), "options": EXACT, "progress": fractions.append}
     res = hybrid.sweep(system, p, [axis], tmp_path, on_point=lambda i, r: seen.append((i, r)), **kw)
     assert fractions == [0.0, 0.5, 1.0]
-    assert [i for i, _ in seen] == [(0,), (1,)] == res.computed
-    assert all(r == res.points[i] for i, r in seen)
+    assert [i for i, _ in seen] == [0, 1]  # one axis: an int (issue 33); res.points keys stay tuples
+    assert res.computed == [(0,), (1,)]
+    assert all(r == res.points[(i,)] for i, r in seen)
     fractions.clear()
     hybrid.sweep(system, p, [axis], tmp_path, resume=True, **kw)  # both found finished
     assert fractions == [1.0]
