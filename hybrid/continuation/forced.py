@@ -807,7 +807,7 @@ def follow_branch(
     # without absolute tolerances (the exact flow) takes SIZE_FLOOR.
     atol = c.sh.method.atol_vector(c.sh.names)
     size0 = max(_size(first), float(np.min(atol, initial=np.inf)) or SIZE_FLOOR)
-    floor = dict(zip(c.sh.names, atol, strict=True))
+    floor = {n: float(a) if a > 0 else SIZE_FLOOR for n, a in zip(c.sh.names, atol, strict=True)}
     ds_cur = st.ds
     rephased = False
     n_points, fails = 1, 0
