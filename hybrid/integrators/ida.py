@@ -186,13 +186,17 @@ class ModeSolver:
         if mode.alg_idx.size:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
-            armed, safe, gfn = self.armed, self.safe, mode._guards_fn
-            self._all_armed = all_armed = [True]  # armed.all(), updated at every call into IDA
+            gfn = mode._guards_fn
+            # The disarmed guards and their safe values, refreshed at every call into IDA (the caller
+            # (dis)arms between calls only): (indices, values), or None where all are armed.
+            self._disarmed = disarmed = [None]
+            self._armed_key = self.armed.tobytes() + self.safe.tobytes()
 
             def eventsfn(t, y, yp, out):
                 out[:] = gfn([t, *y.tolist()])  # all guards in one generated function
-                if not all_armed[0]:
-                    out[~armed] = safe[~armed]
+                d = disarmed[0]
+                if d is not None:
+                    out[d[0]] = d[1]
 
             eventsfn.terminal = [True] * ng
             eventsfn.direction = [int(d) for d in mode.guard_directions]
@@ -203,11 +207,24 @@ class ModeSolver:
             self._events = None
         self._ida = _ida(resfn, opts)
 
+    def _arm(self) -> None:
+        """Hand the events function the guards disarmed now (``armed``, ``safe``; compared as bytes:
+        this runs before every call into IDA, once per internal step in one-step mode)."""
+        key = self.armed.tobytes() + self.safe.tobytes()
+        if key == self._armed_key:
+            return
+        self._armed_key = key
+        if self.armed.all():
+            self._disarmed[0] = None
+        else:
+            off = np.flatnonzero(~self.armed)
+            self._disarmed[0] = (off, self.safe[off].copy())
+
     def start(self, t: float, y: np.ndarray, yp: np.ndarray) -> None:
         """(Re)initialise at a consistent point ``(t, y, y')``."""
         self._ida.init_step(float(t), np.asarray(y, dtype=float), np.asarray(yp, dtype=float))
         if self._events is not None:
-            self._all_armed[0] = bool(self.armed.all())
+            self._arm()
         self.nfev_last = self.njev_last = 0
         self._t = float(t)
         self._y, self._yp = np.array(y, dtype=float), np.array(yp, dtype=float)
@@ -226,7 +243,7 @@ class ModeSolver:
     def step(self, tout: float, tstop: float, *, one_step: bool) -> StepResult:
         """Advance towards ``tout`` (one internal step if ``one_step``), never past ``tstop``."""
         if self._events is not None:
-            self._all_armed[0] = bool(self.armed.all())  # the caller (dis)arms between calls only
+            self._arm()  # the caller (dis)arms between calls only
         r, bad = _call(self._ida, float(tout), "onestep" if one_step else "normal", float(tstop))
         if bad is not None:
             self._clear_events()
@@ -246,7 +263,7 @@ class ModeSolver:
     def interpolate(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """State at ``t`` inside the last internal step (no advance)."""
         if self._events is not None:
-            self._all_armed[0] = bool(self.armed.all())
+            self._arm()
         r, bad = _call(self._ida, float(t), "normal", None)
         self._clear_events()
         if bad is not None or r.status < 0:
