@@ -685,6 +685,11 @@ class IDA(Method):
         flow: list[np.ndarray] = []
 
         def series(k: int) -> np.ndarray:
+            # Only the variables the guard's series depends on where they are few (a guard of one
+            # block of a chain), else the whole flow's series, once for all guards (issue 34)
+            cone = cm.taylor_cone(cm.guards[k].expr, order)
+            if 2 * len(cone) < cm.n:
+                return cm.guard_series(k, t, y, order, cm.taylor(t, y, order, rows=cone))
             if not flow:
                 flow.append(cm.taylor(t, y, order))
             return cm.guard_series(k, t, y, order, flow[0])

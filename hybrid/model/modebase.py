@@ -169,11 +169,50 @@ class ModeMethods:
         return grad, g.grad_t(v)
 
     # ------------------------------------------------------------------
-    def taylor(self, t: float, y: np.ndarray, order: int) -> np.ndarray:
+    def taylor_cone(self, expr, order: int) -> set[int]:
+        """The variables whose series the series of ``expr`` to ``order`` depends on: those of
+        ``expr``, then those of the derivatives of the differential ones among them, ``order`` times
+        (a slave variable brings the variables of its algebraic equation at once: its order-k
+        coefficient follows theirs). See :meth:`taylor` (``rows``)."""
+        index = {nm: i for i, nm in enumerate(self.names[: self.n])}
+        f, g = self.f_expr, self.g_expr
+
+        def deps(e) -> set[int]:
+            return {index[s] for s in e.free if s in index}
+
+        def with_slaves(new: set[int], seen: set[int]) -> set[int]:
+            stack = [i for i in new if i in g]
+            while stack:
+                for j in deps(g[stack.pop()]) - seen - new:
+                    new.add(j)
+                    if j in g:
+                        stack.append(j)
+            return new
+
+        level = with_slaves(deps(expr), set())
+        cone = set(level)
+        for _ in range(order):
+            nxt: set[int] = set()
+            for i in level:
+                if i in f:
+                    nxt |= deps(f[i])
+            level = with_slaves(nxt - cone, cone)
+            if not level:
+                break
+            cone |= level
+        return cone
+
+    def taylor(self, t: float, y: np.ndarray, order: int, rows: set[int] | None = None) -> np.ndarray:
         """Taylor coefficients of this mode's flow through ``(t, y)``.
 
         Differential variables: ``x_{k+1} = f(x)_k / (k+1)``; slave variables:
         the order-``k`` coefficient of ``g(x, z) = 0`` is linear in ``z_k``.
+
+        ``rows`` (e.g. :meth:`taylor_cone` of a guard): only these variables' series are computed;
+        the others keep their value and no higher coefficient. A variable reached after ``d``
+        derivatives in the cone then has its first ``order - d`` coefficients right, so the series
+        of the expression the cone was made for is the full one to ``order`` (issue 34: a guard of
+        one block of a chain of 256 needs the blocks within ``order`` springs of it, not all).
 
         Returns
         -------
@@ -187,10 +226,13 @@ class ModeMethods:
         if order >= 1:
             tj[1] = 1.0
         a = self.alg_idx
+        if rows is not None:
+            a = np.array([i for i in a.tolist() if i in rows], dtype=int)
         Jzz = None
         if a.size:
             Jzz = self.dFdy(t, y)[np.ix_(a, a)]
-        f_rows, f_roots = list(self.f_expr), tuple(self.f_expr.values())
+        f_rows = list(self.f_expr) if rows is None else [i for i in self.f_expr if i in rows]
+        f_roots = tuple(self.f_expr[i] for i in f_rows)
         g_roots = tuple(self.g_expr[i] for i in a)
         for k in range(order):
             env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
