@@ -683,13 +683,18 @@ class IDA(Method):
         """The guards' series from the flow's Taylor series of the mode's equations (computed once)."""
         cm = cs.modes[mode]
         flow: list[np.ndarray] = []
+        parts: list[tuple[frozenset, np.ndarray]] = []  # series over cones, reused by guards inside one
 
         def series(k: int) -> np.ndarray:
             # Only the variables the guard's series depends on where they are few (a guard of one
             # block of a chain), else the whole flow's series, once for all guards (issue 34)
             cone = cm.taylor_cone(cm.guards[k].expr, order)
             if 2 * len(cone) < cm.n:
-                return cm.guard_series(k, t, y, order, cm.taylor(t, y, order, rows=cone))
+                X = next((X for c, X in parts if cone <= c), None)
+                if X is None:
+                    X = cm.taylor(t, y, order, rows=cone)
+                    parts.append((cone, X))
+                return cm.guard_series(k, t, y, order, X)
             if not flow:
                 flow.append(cm.taylor(t, y, order))
             return cm.guard_series(k, t, y, order, flow[0])

@@ -169,11 +169,15 @@ class ModeMethods:
         return grad, g.grad_t(v)
 
     # ------------------------------------------------------------------
-    def taylor_cone(self, expr, order: int) -> set[int]:
+    def taylor_cone(self, expr, order: int) -> frozenset[int]:
         """The variables whose series the series of ``expr`` to ``order`` depends on: those of
         ``expr``, then those of the derivatives of the differential ones among them, ``order`` times
         (a slave variable brings the variables of its algebraic equation at once: its order-k
-        coefficient follows theirs). See :meth:`taylor` (``rows``)."""
+        coefficient follows theirs). See :meth:`taylor` (``rows``). Kept per expression and order."""
+        kept = self.__dict__.setdefault("_cones", {})
+        hit = kept.get((expr, order))
+        if hit is not None:
+            return hit
         index = {nm: i for i, nm in enumerate(self.names[: self.n])}
         f, g = self.f_expr, self.g_expr
 
@@ -200,9 +204,13 @@ class ModeMethods:
             if not level:
                 break
             cone |= level
+        cone = frozenset(cone)
+        kept[(expr, order)] = cone
         return cone
 
-    def taylor(self, t: float, y: np.ndarray, order: int, rows: set[int] | None = None) -> np.ndarray:
+    def taylor(
+        self, t: float, y: np.ndarray, order: int, rows: frozenset[int] | set[int] | None = None
+    ) -> np.ndarray:
         """Taylor coefficients of this mode's flow through ``(t, y)``.
 
         Differential variables: ``x_{k+1} = f(x)_k / (k+1)``; slave variables:
@@ -234,8 +242,8 @@ class ModeMethods:
         f_rows = list(self.f_expr) if rows is None else [i for i in self.f_expr if i in rows]
         f_roots = tuple(self.f_expr[i] for i in f_rows)
         g_roots = tuple(self.g_expr[i] for i in a)
+        env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
         for k in range(order):
-            env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
             series = taylor_eval_many(f_roots, env)  # shared sub-expressions once
             for i, c in zip(f_rows, series, strict=True):
                 X[i, k + 1] = c[k] / (k + 1)
