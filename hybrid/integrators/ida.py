@@ -260,6 +260,50 @@ class ModeSolver:
             self._t, self._y, self._yp = res.t, res.y, res.yp
         return res
 
+    def advance(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, StepResult]:
+        """From the point of the last :meth:`start` through the output times ``ts`` (increasing,
+        after it; at least two) in one call into IDA, never past ``ts[-1]``, stopping at a crossing.
+
+        Returns the times and states of the outputs reached (rows) and the end (a :class:`StepResult`:
+        at ``ts[-1]``, at a crossing, or where IDA failed). IDA loops over the outputs itself: no
+        Python call per output or internal step (issue 34). Afterwards the solver must be started
+        again (:meth:`start`) before :meth:`step` or :meth:`interpolate`.
+        """
+        if self._events is not None:
+            self._arm()
+        tspan = np.concatenate([[self._t], np.asarray(ts, dtype=float)])
+        _NOTES.text = ""
+        saved, sys.stdout = sys.stdout, _NOTES
+        try:
+            r = self._ida.solve(tspan, self._y, self._yp)
+        except KeyError as exc:
+            flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
+            detail = f": {_NOTES.text}" if _NOTES.text else ""
+            self._clear_events()
+            end = StepResult(
+                int(flag),
+                self._t,
+                self._y,
+                self._yp,
+                (),
+                f"IDA returned flag {flag}, unknown to scikit-sundae{detail}",
+            )
+            return np.zeros(0), np.zeros((0, self._y.size)), end
+        finally:
+            sys.stdout = saved
+        fired: tuple[int, ...] = ()
+        if r.status == ROOT and r.i_events is not None:
+            fired = tuple(int(k) for k in np.flatnonzero(r.i_events[-1]))
+        self._clear_events()
+        self.nfev_last, self.njev_last = int(r.nfev), int(r.njev)
+        msg = str(r.message) + (f" {_NOTES.text}" if r.status < 0 and _NOTES.text else "")
+        t, y, yp = np.asarray(r.t), np.asarray(r.y), np.asarray(r.yp)
+        end = StepResult(int(r.status), float(t[-1]), y[-1], yp[-1], fired, msg)
+        if end.status >= 0 or float(t[-1]) > self._t:
+            self._t, self._y, self._yp = end.t, end.y, end.yp
+        n = t.size - 1 if (end.status == ROOT or end.status < 0) else t.size
+        return t[1:n], y[1:n], end
+
     def interpolate(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """State at ``t`` inside the last internal step (no advance)."""
         if self._events is not None:
