@@ -116,6 +116,7 @@ class Run:
         # together at one instant)
         self.recent = deque(maxlen=options.zeno_count * (1 + len(cs.system.components)))
         self.nfev = self.njev = self.n_steps = 0
+        self.cost_per_output: float | None = None  # IDA's residual evaluations per output (segment_outputs)
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
@@ -572,10 +573,21 @@ class Run:
             self.njev += solver.njev_last
 
     def upcoming(self, t: float) -> np.ndarray:
-        """The next output times of a solver's call from ``t``: the samples after ``t`` (at most
-        :data:`OUTPUTS_PER_CALL`), the end of the run if they reach it, and at least two times."""
+        """The next output times of a solver's call from ``t``: the samples after ``t``, the end of
+        the run if they reach it, and at least two times.
+
+        As many samples as the budget allows at the cost per output seen so far in the run (half
+        of what remains; two while none is known, as many calls into IDA as before: each output
+        interval may take IDA's ``max_num_steps``), at most :data:`OUTPUTS_PER_CALL` and
+        :data:`OUTPUT_VALUES_PER_CALL` values: a run whose dynamics turn fast is stopped by its
+        budget as soon as before."""
         s = self.samples
-        per_call = max(16, min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1)))
+        per_call = max(2, min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1)))
+        if self.cost_per_output is None:
+            per_call = 2
+        else:
+            left = max(self.budget.max_steps - self.nfev, 0)
+            per_call = max(2, min(per_call, int(0.5 * left / max(self.cost_per_output, 1.0))))
         j = min(self.next_sample + per_call, s.size)
         ts = (
             s.times(self.next_sample, j) if isinstance(s, SampleGrid) else np.asarray(s[self.next_sample : j])
@@ -597,6 +609,9 @@ class Run:
             ts = self.upcoming(t)
             rows_t, rows_y, r = solver.advance(ts)
             self.n_steps += 1
+            # residual evaluations per output interval (the largest seen: the next calls' size)
+            cost = solver.nfev_last / max(int(np.sum(ts <= r.t)), 1)
+            self.cost_per_output = cost if self.cost_per_output is None else max(self.cost_per_output, cost)
             self.nfev += solver.nfev_last
             self.njev += solver.njev_last
             if r.status >= 0 or r.t > t:
