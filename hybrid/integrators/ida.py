@@ -739,6 +739,7 @@ class IDA(Method):
         cm = cs.modes[mode]
         flow: list[np.ndarray] = []
         parts: list[tuple[frozenset, np.ndarray]] = []  # series over cones, reused by guards inside one
+        jac: list[np.ndarray] = []  # dF/dy at (t, y), shared by the cones
 
         def series(k: int) -> np.ndarray:
             # Only the variables the guard's series depends on where they are few (a guard of one
@@ -747,7 +748,9 @@ class IDA(Method):
             if 2 * len(cone) < cm.n:
                 X = next((X for c, X in parts if cone <= c), None)
                 if X is None:
-                    X = cm.taylor(t, y, order, rows=cone)
+                    if not jac and cm.alg_idx.size:
+                        jac.append(cm.dFdy(t, y))
+                    X = cm.taylor(t, y, order, rows=cone, dFdy=jac[0] if jac else None)
                     parts.append((cone, X))
                 return cm.guard_series(k, t, y, order, X)
             if not flow:

@@ -33,8 +33,16 @@ class ModeMethods:
         out = [np.broadcast_to(np.asarray(v, dtype=float), t.shape) for v in vals]
         return out if all(np.all(np.isfinite(v)) for v in out) else None
 
-    def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
-        env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+    def _env(self, tj: np.ndarray, X: np.ndarray, only=None) -> dict:
+        """Series of ``t`` and of the variables (rows of ``X``; ``only``: of these names only, for
+        expressions that read no other) and the run-time parameters, by name."""
+        if only is None:
+            env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+        else:
+            index = self.__dict__.get("_name_index")
+            if index is None:
+                index = self.__dict__["_name_index"] = {nm: i for i, nm in enumerate(self.names)}
+            env = {"t": tj, **{nm: X[index[nm]] for nm in only if nm in index}}
         for p in self._runtime:
             env[p] = self._ns[f"_p_{p}"]
         return env
@@ -209,7 +217,12 @@ class ModeMethods:
         return cone
 
     def taylor(
-        self, t: float, y: np.ndarray, order: int, rows: frozenset[int] | set[int] | None = None
+        self,
+        t: float,
+        y: np.ndarray,
+        order: int,
+        rows: frozenset[int] | set[int] | None = None,
+        dFdy: np.ndarray | None = None,
     ) -> np.ndarray:
         """Taylor coefficients of this mode's flow through ``(t, y)``.
 
@@ -221,6 +234,7 @@ class ModeMethods:
         derivatives in the cone then has its first ``order - d`` coefficients right, so the series
         of the expression the cone was made for is the full one to ``order`` (issue 34: a guard of
         one block of a chain of 256 needs the blocks within ``order`` springs of it, not all).
+        ``dFdy``: :meth:`dFdy` at ``(t, y)`` if at hand (shared by the cones of one point).
 
         Returns
         -------
@@ -238,11 +252,12 @@ class ModeMethods:
             a = np.array([i for i in a.tolist() if i in rows], dtype=int)
         Jzz = None
         if a.size:
-            Jzz = self.dFdy(t, y)[np.ix_(a, a)]
+            Jzz = (self.dFdy(t, y) if dFdy is None else dFdy)[np.ix_(a, a)]
         f_rows = list(self.f_expr) if rows is None else [i for i in self.f_expr if i in rows]
         f_roots = tuple(self.f_expr[i] for i in f_rows)
         g_roots = tuple(self.g_expr[i] for i in a)
-        env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
+        only = None if rows is None else frozenset().union(*(e.free for e in (*f_roots, *g_roots)))
+        env = self._env(tj, X, only)  # views of the rows of X: they see the coefficients set below
         for k in range(order):
             series = taylor_eval_many(f_roots, env)  # shared sub-expressions once
             for i, c in zip(f_rows, series, strict=True):
@@ -265,4 +280,5 @@ class ModeMethods:
         tj[0] = t
         if order >= 1:
             tj[1] = 1.0
-        return taylor_eval(self.guards[k].expr, self._env(tj, X))
+        expr = self.guards[k].expr
+        return taylor_eval(expr, self._env(tj, X, expr.free))
