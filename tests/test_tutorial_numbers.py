@@ -148,15 +148,10 @@ def test_the_tutorials_frequency_response_is_complete_with_its_band_and_peak(int
     for ref in (lo_ref, hi_ref):
         row = _edge(fr, ref)
         half = 0.5 * (row["interval_hi"] - row["interval_lo"])
-        if integrator == "exact":
-            assert row["interval_lo"] <= ref <= row["interval_hi"], (row, ref)
-            assert half <= 1e-7
-        else:
-            # IDA's brackets are not widened by what its tolerances' band can hide: measured at
-            # rtol 1e-8, the lower edge's interval misses the reference by 3.9e-7 (issue 30, open);
-            # it holds it once widened by 10 rtol |Omega|
-            m = 10 * 1e-8 * ref
-            assert row["interval_lo"] - m <= ref <= row["interval_hi"] + m, (row, ref)
+        # the library's own interval, on IDA widened by what its tolerances may move the point
+        # (issue 30: before, at rtol 1e-8 the lower edge's missed the reference by 3.9e-7)
+        assert row["interval_lo"] <= ref <= row["interval_hi"], (row, ref)
+        assert half <= (1e-7 if integrator == "exact" else 1e-3)
     peak = max(fr.rows, key=lambda r: r["amplitude_x1"])
     W_pk, A_pk = true_peak(P, 53.4, 54.0)
     # the orbit at the curve's highest point is the reference's at its frequency

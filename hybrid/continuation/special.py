@@ -37,7 +37,9 @@ says how well it is known):
 * on a noisy map (IDA) a phase near the point may be missing from a probe or shown where it is
   not: the interval is the bracket of the signatures widened to the same extrapolated zeros, from
   the nearest probes whose durations exceed their integration errors, estimated by rerunning each
-  at tolerances :data:`hybrid.continuation.forced.TIGHTER` times tighter.
+  at tolerances :data:`hybrid.continuation.forced.TIGHTER` times tighter; then widened by how far
+  the tolerances move the point itself (:func:`orbit_error_margin`: the orbit is the fixed point
+  of the computed map, and its phase near the point is off by more than one run's error).
 
 On the exact flow the intervals of mode changes, period doublings and Neimark-Sacker points are
 then widened by what rounding leaves unresolved (:func:`rounding_margin`): the computed orbits are
@@ -56,8 +58,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.options import ShootingOptions
 from ..core.status import SPECIAL_KINDS, LocateStatus
 from ..orbits.newton import NewtonMap
+from ..orbits.shooting import shoot_orbit
 
 __all__ = [
     "SpecialPoint",
@@ -865,6 +869,67 @@ def _phase_interval(c, rule: _PhaseRule, w: tuple, o: tuple, probes: list):
     return min(lo, pw[0]), max(hi, pw[1]), ""
 
 
+#: How much tighter (rtol and atol) the orbit is re-solved that estimates the error of a vanishing
+#: phase on a noisy map (:func:`orbit_error_margin`).
+ORBIT_TIGHTER = 100.0
+
+
+def orbit_error_margin(c, rule: _PhaseRule, w: tuple, o: tuple, probes: list) -> tuple[float, str]:
+    """How far [parameter units] the tolerances of a noisy map (IDA) may move a mode change from
+    where its probes put it, and a note where that is not known (issue 30).
+
+    A probe's phase is in error by more than one run's integration error (what the corrector's
+    ``rerun`` estimates, from the probe's own section state): the orbit is the fixed point of the computed
+    map, off by ``cond(I - M)`` times that error, and a phase next to its end is sensitive to the
+    state (a stick phase whose breakaway guard starts near its threshold), while the guard band hides
+    a phase shorter than what the tolerances resolve. Measured on the tutorial's damper at rtol
+    1e-8: each stick phase near the band's lower edge about 3.6e-6 of the period shorter than the
+    exact one, whatever its length (1e-3 to 2.5e-6), so that the edge moved by 2.2e-7 rad/s; the
+    one-period reruns said 1e-8 to 4e-8. So the probe with the phase nearest the point is re-solved
+    (Newton, from its state) at tolerances :data:`ORBIT_TIGHTER` times tighter; the difference of
+    its phase, over the phase's rate along the branch (the secant of the two nearest probes with
+    it, else of that probe and the nearest without), times :data:`RERUN_SAFETY`. 0 on an exact
+    flow, where nothing vanishes (a change of order only), or on a map of several forcing periods
+    (not estimated: said in the note)."""
+    sh = getattr(c, "sh", None)
+    if sh is None or sh.method.flows_exact or rule.measure is None:
+        return 0.0, ""
+    if getattr(sh, "periods", 1) != 1 or not hasattr(c, "base"):
+        return 0.0, "the tolerances' shift of the point is not estimated on this branch"
+    tight = sh.method.tightened(ORBIT_TIGHTER)
+    if tight is None:
+        return 0.0, ""
+    pt = w[1]
+    f_w = rule.measure(pt.view())
+    err = getattr(pt, "orbit_phase_error", None)
+    if err is None:
+        try:
+            orbit = shoot_orbit(
+                c.system,
+                {**c.base, c.parameter: pt.p},
+                pt.y,
+                pt.mode,
+                t0=pt.phi * sh.period,
+                options=sh.options.with_method(tight),
+                settings=ShootingOptions(transient_periods=0, samples_per_period=16),
+            )
+            err = abs(rule.measure(orbit) - f_w) if orbit.converged else math.nan
+        except (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError):
+            err = math.nan
+        pt.orbit_phase_error = err
+    width = abs(o[1].p - pt.p)
+    if not math.isfinite(err):
+        return width, "the orbit at tighter tolerances failed: the interval widened by its bracket"
+    near = [q for q in thin(probes)[-2:] if q[1] != pt.p] + [(None, pt.p, f_w, pt)]
+    if len(near) >= 2 and near[-2][1] != pt.p:
+        rate = abs(near[-2][2] - f_w) / abs(near[-2][1] - pt.p)
+    else:
+        rate = f_w / width if width > 0 else 0.0
+    if not rate > 0:
+        return width, ""
+    return RERUN_SAFETY * err / rate, ""
+
+
 #: The probes nearest the point whose phases are rerun at tighter tolerances, at most.
 RATED = 8
 
@@ -991,5 +1056,10 @@ def _mode_change(c, a, b, ds, settings, tol_p, fail_types, search: float | None 
         point = b
     # on the exact flow, widened by what rounding leaves unresolved (the bracket is narrowed as
     # before: the margin of the step's ends, farther from the point, may be much larger)
-    m = rounding_margin((w[1], o[1]), 0.5 * (lo + hi)) if exact else 0.0
+    # on a noisy map, by what its tolerances may move the point (issue 30)
+    if exact:
+        m = rounding_margin((w[1], o[1]), 0.5 * (lo + hi))
+    else:
+        m, unknown = orbit_error_margin(c, rule, w, o, probes)
+        why = "; ".join(x for x in (why, unknown) if x)
     return _Located(point, "bracketed", 0.5 * (lo + hi), (lo - m, hi + m), note or why, tol=tol_p)

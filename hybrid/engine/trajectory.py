@@ -12,7 +12,7 @@ from ..core.plain import options_text
 from ..core.tables import Tabular
 from ..integrators.options import SolverOptions
 
-__all__ = ["Status", "TransitionRecord", "Trajectory", "switch_groups"]
+__all__ = ["Status", "TransitionRecord", "Trajectory", "switch_groups", "switches"]
 
 
 class Status(enum.IntEnum):
@@ -59,6 +59,12 @@ class TransitionRecord:
         be coincident, and only where none of the instant's earlier switches is of that component:
         a system without components cannot tell, and takes every chained switch as caused. Perturbed, it moves with its own guard, so a
         monodromy matrix takes it as a switch of its own (:func:`switch_groups`).
+    steps : tuple of TransitionRecord
+        Empty for a transition of the event log. A *switch* of :attr:`Trajectory.switches` that
+        took several transitions at one instant (through modes in which no time is spent, e.g.
+        a reversal that passes through a mode held for no time) holds them here, in order; its
+        ``source`` is the first one's, its ``target`` the last one's, ``guard`` the transition
+        whose guard fired (issue 30).
     """
 
     t: float
@@ -70,6 +76,7 @@ class TransitionRecord:
     x_plus: np.ndarray
     chained: bool = False
     coincident: bool = False
+    steps: tuple = ()
 
 
 def switch_groups(events) -> list[list[TransitionRecord]]:
@@ -83,6 +90,35 @@ def switch_groups(events) -> list[list[TransitionRecord]]:
         else:
             groups.append([ev])
     return groups
+
+
+def switches(events) -> tuple[TransitionRecord, ...]:
+    """The switches of an event log: each group of :func:`switch_groups` (a transition and the
+    transitions it caused at the same instant, through modes in which no time is spent) as one
+    record, from the first transition's mode and state to the last one's (issue 30: a reversal
+    through a mode held for no time is one switch, not two). A group of one transition is that
+    transition; a longer one holds its transitions in :attr:`TransitionRecord.steps`."""
+    out = []
+    for group in switch_groups(events):
+        first, last = group[0], group[-1]
+        if len(group) == 1:
+            out.append(first)
+            continue
+        out.append(
+            TransitionRecord(
+                first.t,
+                first.source,
+                last.target,
+                first.guard,
+                first.guard_value,
+                first.x_minus,
+                last.x_plus,
+                first.chained,
+                first.coincident,
+                tuple(group),
+            )
+        )
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -108,7 +144,9 @@ class Trajectory(Tabular):
     outputs : dict of str to ndarray, shape (n,)
         The system's output definitions at the samples.
     events : tuple of TransitionRecord
-        Every switch (of the kept window), in order.
+        Every transition (of the kept window), in order: a switch that takes several transitions
+        at one instant (through modes held for no time) appears as each of them; :attr:`switches`
+        has it once.
     status : Status
     message : str
     success : bool
@@ -193,6 +231,12 @@ class Trajectory(Tabular):
     def n_transitions(self) -> int:
         """Switches of the whole run (kept and dropped)."""
         return len(self.events) + self.events_dropped
+
+    @property
+    def switches(self) -> tuple[TransitionRecord, ...]:
+        """The switches of the kept window (:func:`switches`): the transitions taken at one instant
+        through modes in which no time is spent make one switch."""
+        return switches(self.events)
 
     @property
     def n_samples(self) -> int:

@@ -468,8 +468,9 @@ def finish(solver: AutonomousSolver, y, mode, T, ev: Evaluation, it, res, sample
         amplitude=amp,
         half_peak_to_peak=hpp,
         # on a switch section, the section's own switch closes the period
-        mode_sequence=tuple([mode] + [e.target for e in tr.events]),
-        switch_times=np.array([e.t for e in tr.events] + ([] if solver.phase == "anchor" else [float(T)])),
+        # (a switch: transitions at one instant through modes held for no time, issue 30)
+        mode_sequence=tuple([mode] + [e.target for e in tr.switches]),
+        switch_times=np.array([e.t for e in tr.switches] + ([] if solver.phase == "anchor" else [float(T)])),
         mode_fractions=mode_fractions(tr, t_end),
         state_names=tuple(fm.names[i] for i in fm.s),
         monodromy=Ms,

@@ -57,9 +57,11 @@ class PeriodicOrbit:
     half_peak_to_peak : dict
         Per variable and output: ``(max x - min x) / 2``.
     mode_sequence : tuple of str
-        Modes in the order visited from the section.
+        Modes in the order visited from the section (a mode passed through at one instant, in
+        which no time is spent, is not one of them: see :attr:`Trajectory.switches`).
     switch_times : ndarray
-        Switch times after the section [s], ``0 <= t - t0 < period``.
+        Switch times after the section [s], ``0 <= t - t0 < period``: one per switch (transitions
+        taken at one instant through modes held for no time are one switch; issue 30).
     mode_fractions : dict
         Fraction of the period spent in each mode.
     state_names : tuple of str
@@ -658,7 +660,10 @@ def finish_orbit(
         amp[n] = max(abs(hi), abs(lo))
         hpp[n] = 0.5 * (hi - lo)
     fr = mode_fractions(tr, shooter.period)
-    seq = [mode0] + [e.target for e in tr.events]
+    # one switch per group of transitions at one instant (a mode passed through in no time is not
+    # in the sequence; issue 30)
+    sw = tr.switches
+    seq = [mode0] + [e.target for e in sw]
     energy = {}
     en = sys_.energy
     if "input" in en and "dissipated" in en:
@@ -728,7 +733,7 @@ def finish_orbit(
         amplitude=amp,
         half_peak_to_peak=hpp,
         mode_sequence=tuple(seq),
-        switch_times=np.array([e.t - t0 for e in tr.events]),
+        switch_times=np.array([e.t - t0 for e in sw]),
         mode_fractions=fr,
         state_names=tuple(names[i] for i in s),
         monodromy=Ms,

@@ -283,13 +283,14 @@ def test_frc_cli_writes_every_row_once(tmp_path, capsys):
     assert len({r["Omega"] for r in rows}) == len(rows) >= 10
     assert "Omega from 1.1 to 1.6" in out
     # The README's main job on the forced Coulomb oscillator: every row of frc.csv is Den Hartog's
-    # non-stop motion (full-precision CSV; measured max |dX/X| 1.7e-10). Four switches per period: the
-    # momentary stops at the turning points (stick fraction 0).
+    # non-stop motion (full-precision CSV; measured max |dX/X| 1.7e-10). Two switches per period: the
+    # reversals at the turning points, each a momentary stop through `stick` (stick fraction 0), one
+    # switch (issue 30).
     m, k, R, F = (resolve_model("coulomb").presets["forced"][n] for n in ("m", "k", "R", "F"))
     for r in rows:
         W = float(r["Omega"])
         X = den_hartog(m, k, R, F, W)
-        assert r["transitions_per_period"] == "4", r
+        assert r["transitions_per_period"] == "2", r
         assert float(r["fraction_stick"]) == 0.0, r
         assert abs(float(r["amplitude_x"]) - X) <= den_hartog_tolerance(m, k, W) * X, (W, r["amplitude_x"], X)
     assert min(float(r["Omega"]) for r in rows) == 1.1

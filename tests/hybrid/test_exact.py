@@ -258,7 +258,9 @@ def test_exact_orbits_agree_with_ida_over_a_branch(name, preset, omegas):
         assert ex.residual <= 1e-12  # the exact map: Newton converges to rounding (IDA's to its tolerance)
         assert ref.t0 == ex.t0, om
         assert ex.mode_sequence == ref.mode_sequence, om
-        assert len(ex.mode_sequence) == 5, om
+        # two stick phases on the dampers' band; the Coulomb oscillator slips throughout, each
+        # reversal one switch through `stick`, held for no time (issue 30)
+        assert len(ex.mode_sequence) == (3 if name == "coulomb" else 5), om
         assert ex.stability == ref.stability == "stable", om
         scale = max(abs(v) for v in ref.amplitude.values())
         for k, v in ref.amplitude.items():

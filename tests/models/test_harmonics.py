@@ -166,7 +166,11 @@ def test_a_friction_damper_with_two_harmonics_against_ida_and_a_long_run():
     ida = hybrid.periodic_orbit(tmd, p, options=IDA_TIGHT)
     assert exact.converged
     assert ida.converged
-    assert exact.transitions_per_period == ida.transitions_per_period == 4
+    # two reversals per period, each one switch through the stuck mode held for no time (issue 30;
+    # the event log has both transitions of each)
+    assert exact.transitions_per_period == ida.transitions_per_period == 2
+    assert len(exact.trajectory.events) == len(ida.trajectory.events) == 4
+    assert [m for a, b, m in exact.trajectory.mode_intervals() if b > a][:2] == list(exact.mode_sequence[:2])
     scale = max(exact.amplitude[x] for x in ("x1", "x2"))
     for x in ("x1", "x2"):
         assert abs(exact.amplitude[x] - ida.amplitude[x]) < 1e-9 * scale  # measured 6.2e-10
@@ -299,3 +303,57 @@ def test_a_cells_force_of_harmonics_and_element_names_shared_with_parameters():
         ModelError, match=r"\[cells\.block\.friction\.R\]: the name `R` is already \[springs\.R\] of the cell"
     ):
         build(tomllib.loads(twice))
+
+
+@pytest.mark.slow
+def test_a_reversal_through_a_mode_held_for_no_time_is_one_switch():
+    """Issue 30, part 3: one contact forced by F sin(W t) + F2 sin(3 W t + phi2) reverses its slip
+    four times per period without sticking (slip -> stick -> slip at one instant: the stick
+    condition does not hold there) and sticks twice: 8 switches, not the 12 transitions of the
+    event log; no warning. The monodromy (the composite switch's saltation computed directly)
+    against central differences of the period map."""
+    import warnings
+
+    system = build(_contact_chain(1))
+    p = system.preset("standard", F=2.0, F2=1.0, R=0.8, Omega=4.0, phi2=0.4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        orbit = hybrid.periodic_orbit(system, p, options=EXACT)
+    assert orbit.converged
+    tr = orbit.trajectory
+    assert len(tr.events) == 12
+    # independent of how transitions are grouped: the phases of positive length over the period,
+    # each closed by one switch
+    phases = [m for a, b, m in tr.mode_intervals() if b > a]
+    if phases[0] == phases[-1]:  # the section lies inside a phase
+        phases.pop()
+    assert orbit.transitions_per_period == len(orbit.switch_times) == len(phases) == 8
+    assert list(orbit.mode_sequence[:-1]) == phases or list(orbit.mode_sequence) == phases
+    reversals = [s for s in tr.switches if s.steps]
+    assert len(reversals) == 4
+    for s in reversals:
+        a, b = s.steps
+        assert {s.source, s.target} == {"motion|slip+", "motion|slip-"}
+        assert a.target == b.source == "motion|stick" and a.t == b.t == s.t
+    names = list(system.variable_names)
+    idx = [names.index("x1"), names.index("v_x1")]
+    M = orbit.monodromy[np.ix_([0, 1], [0, 1])]
+    assert orbit.state_names[:2] == ("x1", "v_x1")
+    fd = np.empty((2, 2))
+    for j, i in enumerate(idx):
+        h = 1e-6 * max(1.0, abs(orbit.x0[i]))
+        ends = []
+        for sign in (1.0, -1.0):
+            x0 = orbit.x0.copy()
+            x0[i] += sign * h
+            run = hybrid.simulate(
+                system,
+                p,
+                (orbit.t0, orbit.t0 + orbit.period),
+                dict(zip(names, x0.tolist(), strict=True)),
+                orbit.mode0,
+                options=EXACT,
+            )
+            ends.append(run.y_final[idx])
+        fd[:, j] = (ends[0] - ends[1]) / (2 * h)
+    assert np.max(np.abs(fd - M)) < 1e-7 * np.max(np.abs(M))  # measured 1.0e-8 (the differences' truncation)
