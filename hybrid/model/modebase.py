@@ -11,10 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.cache import LRUCache
 from ..core.errors import AlgebraicSolveError
 from .taylor import taylor_eval, taylor_eval_many
 
 __all__ = ["ModeMethods"]
+
+
+#: Guard cones kept per mode (:meth:`ModeMethods.taylor_cone`; a few per guard and order).
+CONES_KEPT = 256
 
 
 class ModeMethods:
@@ -62,6 +67,11 @@ class ModeMethods:
         :meth:`hybrid.model.compiled.CompiledSystem.set_runtime` as the mode's own do.
     """
 
+    #: The state variables' positions by name, made on first use (:meth:`_env`).
+    _name_index: dict[str, int] | None = None
+    #: The guards' Taylor cones by (expression, order), made on first use (:meth:`taylor_cone`).
+    _cones: LRUCache | None = None
+
     def outputs_at(self, t: np.ndarray, Y: np.ndarray) -> list[np.ndarray] | None:
         """The system's outputs at samples ``(t[i], Y[i])`` of this mode, one array per output (in
         the order of ``system.outputs``), evaluated elementwise at once; None where a value is not
@@ -79,9 +89,9 @@ class ModeMethods:
         if only is None:
             env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
         else:
-            index = self.__dict__.get("_name_index")
+            index = self._name_index
             if index is None:
-                index = self.__dict__["_name_index"] = {nm: i for i, nm in enumerate(self.names)}
+                index = self._name_index = {nm: i for i, nm in enumerate(self.names)}
             env = {"t": tj, **{nm: X[index[nm]] for nm in only if nm in index}}
         for p in self._runtime:
             env[p] = self.parameter_namespace[f"_p_{p}"]
@@ -222,7 +232,9 @@ class ModeMethods:
         ``expr``, then those of the derivatives of the differential ones among them, ``order`` times
         (a slave variable brings the variables of its algebraic equation at once: its order-k
         coefficient follows theirs). See :meth:`taylor` (``rows``). Kept per expression and order."""
-        kept = self.__dict__.setdefault("_cones", {})
+        kept = self._cones
+        if kept is None:
+            kept = self._cones = LRUCache(CONES_KEPT)
         hit = kept.get((expr, order))
         if hit is not None:
             return hit
@@ -253,7 +265,7 @@ class ModeMethods:
                 break
             cone |= level
         cone = frozenset(cone)
-        kept[(expr, order)] = cone
+        kept.put((expr, order), cone)
         return cone
 
     def taylor(
