@@ -60,6 +60,18 @@ def _state_at(system, orbit, t: float) -> dict[str, float]:
     return {n: float(tr[n][0]) for n in system.variable_names}
 
 
+def _one_per_instant(switches: list, t0: float, T: float) -> list:
+    """The reference's switches as phases of the forcing, those at one instant (a reversal through
+    a stuck mode held for no time, recorded as two before issue 30) as one: the last mode entered."""
+    out: list = []
+    for s, m in switches:
+        if out and abs(s - out[-1][0]) <= 1e-12 * T:
+            out[-1] = (s, m)
+        else:
+            out.append((s, m))
+    return sorted(((t0 + s) % T, m) for s, m in out)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("case", sorted(BEFORE))
 def test_shipped_network_orbit_equals_the_enumerating_builders(case):
@@ -78,9 +90,10 @@ def test_shipped_network_orbit_equals_the_enumerating_builders(case):
     new = sorted(
         ((orbit.t0 + s) % T, m) for s, m in zip(orbit.switch_times, orbit.mode_sequence[1:], strict=True)
     )
-    old = sorted(
-        ((ref["t0"] + s) % T, _new_name(m))
-        for s, m in zip(ref["switch_times"], ref["mode_sequence"][1:], strict=True)
+    old = _one_per_instant(
+        [(s, _new_name(m)) for s, m in zip(ref["switch_times"], ref["mode_sequence"][1:], strict=True)],
+        ref["t0"],
+        T,
     )
     assert [m for _, m in new] == [m for _, m in old]
     dt = max((abs(a - b) for (a, _), (b, _) in zip(new, old, strict=True)), default=0.0)
