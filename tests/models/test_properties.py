@@ -55,8 +55,10 @@ RANGES = {
 RANGES["isolator"] = RANGES["absorber"]
 MODELS = {name: resolve_model(name) for name in RANGES}
 TOLERANCE = {"ida": 1e-6, "exact": 1e-9}
-#: Absolute floor of the balance [J]: 100 x IDA's atol (energies of 1e-5 J are atol-limited).
-FLOOR = {"ida": 1e-10, "exact": 1e-14}
+#: Absolute floor of the balance [J]: 1000 x IDA's atol (energies of 1e-5 J are atol-limited: the
+#: absorber stuck for 5 periods, W = 5.24e-5 J, balances to 3.9e-10 J on IDA at atol 1e-12, the
+#: same before and after issues 29-33; a draw of the property restructured in issue 29 met it).
+FLOOR = {"ida": 1e-9, "exact": 1e-14}
 #: Derandomized (the same parameter sets on every run, so the counts reported are reproducible);
 #: no shrinking (a failing set is printed as drawn: shrinking re-runs simulations for minutes).
 PROPERTY = settings(
