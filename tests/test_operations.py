@@ -616,7 +616,9 @@ def test_sweep_max_time_keeps_the_points_done_and_resume_completes(tmp_path, osc
     args = [*GRID20(oscillator), "--workers", "2", "--no-progress", "--out", tmp_path / "o"]
     t0 = time.perf_counter()
     code, _, err = run([*args, "--max-time", "1.5"], capsys)
-    assert time.perf_counter() - t0 < 5  # stopped at the deadline, the points in progress dropped
+    # stopped at the deadline (no hang; the points left undone below show it stopped early), the
+    # points in progress dropped; a bound on hangs, not a timing (it flaked at 5 s under load 4+)
+    assert time.perf_counter() - t0 < 30
     assert code == 1
     last = err.splitlines()[-1]
     assert last.startswith("hybrid: time limit reached (hybrid.time_limit; CLI --max-time): ")
