@@ -28,7 +28,9 @@ the result and what is read off it (amplitudes, multipliers, verdict) are in :mo
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
@@ -48,6 +50,7 @@ from .orbit import (
 )
 from .section import _choose_section
 from .shooter import Shooter
+from .subharmonic import attractor_period, strobe_times
 
 __all__ = ["shoot_orbit", "solve_orbit"]
 
@@ -96,7 +99,7 @@ def shoot_orbit(
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
-    shooter = Shooter(system, params, options)
+    shooter = Shooter(system, params, options, periods=settings.periods)
     if x0 is None:
         x0 = np.zeros(len(system.variable_names))
     y = initial_state(system, x0, mode0)
@@ -136,6 +139,12 @@ def solve_orbit(
     its ``reason`` (``"budget"``, ``"grazing"``, ``"evaluation-failed"``, ``"monodromy-failed"``).
     """
     at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
+    orbit = _solve_any(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
+    return orbit if orbit.periods == shooter.periods else replace(orbit, periods=shooter.periods)
+
+
+def _solve_any(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
+    """:func:`solve_orbit`'s work, its failures as failed orbits."""
     try:
         return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
     except BudgetExceeded as exc:
@@ -164,15 +173,20 @@ def solve_orbit(
 def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
     T = shooter.period
     t_sec, mode = t_start, mode0
+    attractor = None
     if transient_periods > 0:
+        t_end = t_start + transient_periods * T
+        Tf = T / shooter.periods  # the forcing period
+        grid = np.linspace(t_start + (transient_periods - 1) * T, t_end, 257)
+        strobe = strobe_times(t_start, t_end, Tf)
         tr = run_compiled(
             shooter.cs,
             shooter.options,
             t_start,
-            t_start + transient_periods * T,
+            t_end,
             y,
             shooter.cs.mode_id(mode0),
-            np.linspace(t_start + (transient_periods - 1) * T, t_start + transient_periods * T, 257),
+            np.unique(np.concatenate([grid, strobe[:-1]])),
             True,
         )
         shooter.nfev += tr.nfev
@@ -192,7 +206,19 @@ def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, s
             return failed_orbit(
                 shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}", "transient-failed"
             )
+        keep = np.array([i for i, n in enumerate(shooter.names) if n not in shooter.system.quadratures])
+        attractor, mismatch = attractor_period(tr.t, tr.y, Tf, keep)
+        if attractor > 1 and shooter.periods % attractor:
+            warnings.warn(
+                f"the transient of {transient_periods * shooter.periods} forcing periods settled on an orbit of "
+                f"{attractor} forcing periods (a subharmonic: its state after one period differs by {mismatch:.2g} "
+                f"of its size), not of {shooter.periods}; the orbit sought here is not that attractor. Ask for "
+                f"orbits of {attractor} periods: ShootingOptions(periods={attractor}), CLI --subharmonic {attractor}",
+                RuntimeWarning,
+                stacklevel=2,
+            )
         t_sec, y, mode = _choose_section(tr, T)
     t_sec = t_sec - math.floor(t_sec / T) * T
     at[:] = [y, mode, t_sec, 0]
-    return newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
+    orbit = newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
+    return replace(orbit, periods=shooter.periods, attractor_periods=attractor)
