@@ -254,19 +254,19 @@ def test_exact_orbit_against_the_independent_solution(preset):
     # and the library's own run over the same span ends where the reference ends
     end = dict(zip(S.variable_names, o.trajectory.y[-1], strict=True))
     for k in STATE:
-        assert abs(r["state"][k] - end[k]) <= 1e-10 * sc, (k, r["state"][k], end[k])
+        assert abs(r["state"][k] - end[k]) <= 1e-11 * sc, (k, r["state"][k], end[k])
     assert r["mode"] == mode
     # energy: the work of the forces is dissipated by slip and the dampers (to the orbit's residual)
     assert abs(r["input"] - r["slip"] - r["damper"] - r["dE"]) <= 1e-12 * r["input"]
-    assert abs(r["input"] - r["slip"] - r["damper"]) <= 1e-9 * r["input"]
+    assert abs(r["input"] - r["slip"] - r["damper"]) <= 1e-11 * r["input"]  # (measured <= 3e-13)
     assert r["slip"] > 0.01 * r["input"]
-    assert o.energy["input"] == pytest.approx(r["input"], rel=1e-9)
-    assert o.energy["dissipated"] == pytest.approx(r["slip"] + r["damper"], rel=1e-9)
+    assert o.energy["input"] == pytest.approx(r["input"], rel=1e-11)
+    assert o.energy["dissipated"] == pytest.approx(r["slip"] + r["damper"], rel=1e-11)
     assert abs(o.energy["relative_residual"]) <= 1e-9
     # time fractions of the period in each local mode of the contact
     fr = o.local_fractions
     for m, t in r["times"].items():
-        assert fr.get(f"tip.{m}", 0.0) == pytest.approx(t / o.period, abs=1e-9), m
+        assert fr.get(f"tip.{m}", 0.0) == pytest.approx(t / o.period, abs=1e-11), m
 
 
 @pytest.mark.slow
