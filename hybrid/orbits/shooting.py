@@ -28,7 +28,6 @@ the result and what is read off it (amplitudes, multipliers, verdict) are in :mo
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 
@@ -50,7 +49,7 @@ from .orbit import (
 )
 from .section import _choose_section
 from .shooter import Shooter
-from .subharmonic import attractor_period, strobe_times
+from .subharmonic import EXTRA_PERIODS, attractor_period, notice, settle, strobe_times
 
 __all__ = ["shoot_orbit", "solve_orbit"]
 
@@ -208,17 +207,21 @@ def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, s
             )
         keep = np.array([i for i, n in enumerate(shooter.names) if n not in shooter.system.quadratures])
         attractor, mismatch = attractor_period(tr.t, tr.y, Tf, keep)
-        if attractor > 1 and shooter.periods % attractor:
-            warnings.warn(
-                f"the transient of {transient_periods * shooter.periods} forcing periods settled on an orbit of "
-                f"{attractor} forcing periods (a subharmonic: its state after one period differs by {mismatch:.2g} "
-                f"of its size), not of {shooter.periods}; the orbit sought here is not that attractor. Ask for "
-                f"orbits of {attractor} periods: ShootingOptions(periods={attractor}), CLI --subharmonic {attractor}",
-                RuntimeWarning,
-                stacklevel=2,
-            )
+        last = (tr.t_final, tr.y_final, tr.mode_final)
         t_sec, y, mode = _choose_section(tr, T)
     t_sec = t_sec - math.floor(t_sec / T) * T
     at[:] = [y, mode, t_sec, 0]
     orbit = newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
+    if attractor is not None:
+        n = transient_periods * shooter.periods
+        if attractor == 0 and orbit.converged and orbit.stability == "unstable":
+
+            def run(a, b, y0, m0, t_eval):
+                return run_compiled(
+                    shooter.cs, shooter.options, a, b, y0, shooter.cs.mode_id(m0), t_eval, True
+                )
+
+            attractor, mismatch = settle(run, *last, Tf, keep)
+            n += EXTRA_PERIODS
+        notice(attractor, mismatch, n, shooter.periods)
     return replace(orbit, periods=shooter.periods, attractor_periods=attractor)

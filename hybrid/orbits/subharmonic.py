@@ -6,15 +6,28 @@ subharmonic), or on none. Shooting for an orbit of one period from such a transi
 at all, to an unstable orbit the run never showed. So the transient is checked: its state at the
 last forcing periods' ends is compared with the state ``k`` periods earlier, ``k = 1 ... MAX_K``;
 the first ``k`` at which it repeats (to :data:`REPEAT_TOL` of its size, and far better than it
-repeats after one period, :data:`CONTRAST`) is the period found. The section state is compared on
+repeats after one period, :data:`CONTRAST`) is the period found. A transient that has not settled
+(no such ``k``) is run on for :data:`EXTRA_PERIODS` more periods when the orbit found from it is
+unstable (then it is not the attractor, and the question matters). The section state is compared on
 the variables that are not quadratures (the energy integrals grow without repeating).
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-__all__ = ["MAX_K", "REPEAT_TOL", "CONTRAST", "strobe_times", "attractor_period"]
+__all__ = [
+    "MAX_K",
+    "REPEAT_TOL",
+    "CONTRAST",
+    "EXTRA_PERIODS",
+    "strobe_times",
+    "attractor_period",
+    "settle",
+    "notice",
+]
 
 #: Largest period [forcing periods] looked for.
 MAX_K = 8
@@ -75,3 +88,32 @@ def attractor_period(t: np.ndarray, y: np.ndarray, period: float, keep: np.ndarr
         if d[k - 1] <= REPEAT_TOL and d[k - 1] * CONTRAST <= d[0]:
             return k, d[0]
     return 0, d[0]
+
+
+#: Forcing periods run on from a transient that had not settled, when the orbit found is unstable.
+EXTRA_PERIODS = 100
+
+
+def settle(run, t1: float, y1: np.ndarray, mode1: str, period: float, keep: np.ndarray) -> tuple[int, float]:
+    """:func:`attractor_period` after :data:`EXTRA_PERIODS` more forcing periods from ``(t1, y1, mode1)``
+    (``run(t0, t1, y0, mode0, t_eval)`` a run of the system returning a Trajectory; ``(0, nan)`` if it
+    fails)."""
+    t2 = t1 + EXTRA_PERIODS * period
+    tr = run(t1, t2, y1, mode1, strobe_times(t1, t2, period))
+    if not tr.success:
+        return 0, float("nan")
+    return attractor_period(tr.t, tr.y, period, keep)
+
+
+def notice(attractor: int, mismatch: float, transient: int, periods: int) -> None:
+    """Warn that a transient of ``transient`` forcing periods settled on an orbit of ``attractor``
+    periods, where orbits of ``periods`` are sought (nothing if ``attractor`` divides ``periods``)."""
+    if attractor > 1 and periods % attractor:
+        warnings.warn(
+            f"the transient of {transient} forcing periods settled on an orbit of {attractor} forcing periods "
+            f"(a subharmonic: its state after one period differs by {mismatch:.2g} of its size), not of "
+            f"{periods}; the orbit sought here is not that attractor. Ask for orbits of {attractor} periods: "
+            f"ShootingOptions(periods={attractor}), CLI --subharmonic {attractor}",
+            RuntimeWarning,
+            stacklevel=3,
+        )

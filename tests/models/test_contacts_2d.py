@@ -10,6 +10,7 @@ of ``hybrid`` is used in it.
 from __future__ import annotations
 
 import copy
+import json
 import subprocess
 import sys
 import tomllib
@@ -364,15 +365,17 @@ def test_ida_agrees_with_exact(preset):
 
 @pytest.mark.slow
 def test_the_transient_says_when_the_attractor_is_a_subharmonic():
-    # issue 32: a transient that settles on a period-2 orbit is reported (field and notice)
+    # issue 32: a transient that settles on a period-2 orbit is reported (field and notice); the
+    # default transient (10 periods) has not settled, and the period-1 orbit found is unstable: the
+    # run goes on 100 periods and says so
     S = system()
-    with warnings.catch_warnings(record=True) as got:
-        warnings.simplefilter("always")
-        o = periodic_orbit(
-            S, S.preset("subharmonic"), options=EXACT, settings=ShootingOptions(transient_periods=60)
-        )
-    assert o.attractor_periods == 2
-    assert any("orbit of 2 forcing periods" in str(w.message) for w in got)
+    for settings in (ShootingOptions(transient_periods=60), ShootingOptions()):
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            o = periodic_orbit(S, S.preset("subharmonic"), options=EXACT, settings=settings)
+        assert o.stability == "unstable" and o.attractor_periods == 2
+        assert any("orbit of 2 forcing periods" in str(w.message) for w in got)
+        assert o.to_dict()["attractor_periods"] == 2
     with warnings.catch_warnings(record=True) as got:
         warnings.simplefilter("always")
         o = periodic_orbit(
@@ -482,3 +485,20 @@ def test_a_cell_of_contacts_equals_one_contact():
         assert o3.state(k) == pytest.approx(o.state(k), abs=1e-9 * scale(o))
     assert o3.state("N_c_1") * 3 == pytest.approx(o.state("N_tip"), abs=1e-9)
     assert o3.energy["dissipated"] == pytest.approx(o.energy["dissipated"], rel=1e-9)
+
+
+@pytest.mark.slow
+def test_the_cli_finds_the_subharmonic_orbit(tmp_path):
+    # issue 32: `hybrid orbit ... --subharmonic 2`: an orbit of two forcing periods, stable, its JSON
+    # saying so; the multipliers those of the library's periods=2 orbit
+    r = subprocess.run(
+        [sys.executable, "-m", "hybrid.cli", "orbit", str(MODEL), "--preset", "subharmonic", "--subharmonic", "2",
+         "--integrator", "exact", "--json", "--no-plot", "--out", str(tmp_path / "o")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["periods"] == 2 and out["stability"] == "stable"
+    assert out["period"] == pytest.approx(2 * 2 * np.pi / 4.7, rel=1e-14)
+    o = exact_orbit("subharmonic")
+    np.testing.assert_allclose(sorted(out["multiplier_moduli"]), sorted(abs(o.multipliers)), atol=1e-9)
