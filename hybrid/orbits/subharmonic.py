@@ -18,6 +18,9 @@ import warnings
 
 import numpy as np
 
+from ..core.budget import deadline_passed
+from ..core.errors import BudgetExceeded, SimulationError
+
 __all__ = [
     "MAX_K",
     "REPEAT_TOL",
@@ -97,9 +100,14 @@ EXTRA_PERIODS = 100
 def settle(run, t1: float, y1: np.ndarray, mode1: str, period: float, keep: np.ndarray) -> tuple[int, float]:
     """:func:`attractor_period` after :data:`EXTRA_PERIODS` more forcing periods from ``(t1, y1, mode1)``
     (``run(t0, t1, y0, mode0, t_eval)`` a run of the system returning a Trajectory; ``(0, nan)`` if it
-    fails)."""
+    fails, meets its budget, or the deadline has passed)."""
+    if deadline_passed():
+        return 0, float("nan")
     t2 = t1 + EXTRA_PERIODS * period
-    tr = run(t1, t2, y1, mode1, strobe_times(t1, t2, period))
+    try:
+        tr = run(t1, t2, y1, mode1, strobe_times(t1, t2, period))
+    except (BudgetExceeded, SimulationError, ArithmeticError):  # a question, not the orbit: left open
+        return 0, float("nan")
     if not tr.success:
         return 0, float("nan")
     return attractor_period(tr.t, tr.y, period, keep)
