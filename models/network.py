@@ -85,6 +85,12 @@ def describe_network(net: Network) -> str:
         if e.static:
             what += f", R_s = {e.static}"
         lines.append(f"  {e.a:>10} --{symbols[e.kind]}-- {e.b:<10} {e.kind} {e.name}: {what}")
+    for c in net.contacts:
+        (ta, tb), (na, nb) = c.tangential, c.normal
+        lines.append(
+            f"  contact {c.name}: tangential {tb} - {ta}, gap {nb} - {na}; N = max(0, {c.preload} - {c.kn} g), "
+            f"T = {c.kt} (x - w), |T| <= {c.mu} N"
+        )
     for f in net.forces:
         lines.append(f"  force  {f.name} = {force_text(f)} on {f.on}")
     return "\n".join(lines)

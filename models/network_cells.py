@@ -29,8 +29,8 @@ __all__ = ["MAX_COPIES", "expand_cells"]
 MAX_COPIES = 5000
 
 _CELL_KEYS = {"count", "layout", "ends", "description"}
-_PART_TABLES = ("masses", "nodes", "springs", "dampers", "friction", "forces")
-_ELEMENT_TABLES = ("springs", "dampers", "friction")
+_PART_TABLES = ("masses", "nodes", "springs", "dampers", "friction", "forces", "contacts")
+_ELEMENT_TABLES = ("springs", "dampers", "friction", "contacts")
 _LAYOUTS = ("chain", "ring")
 _ENDS = ("free", "fixed")
 #: Keys of a cell's items that hold expressions (the cell's index ``i``, count ``N`` and per-copy
@@ -45,6 +45,10 @@ _EXPR_KEYS = {
     "amplitude",
     "frequency",
     "phase",
+    "preload",  # a 2-D contact's (hybrid_models.network_contacts)
+    "normal_stiffness",
+    "tangential_stiffness",
+    "mu",
 }
 _NAME_TOKEN = re.compile(r"(?<![A-Za-z0-9_.])[A-Za-z_][A-Za-z0-9_]*")
 _CELL_REF = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\[(-?[0-9]+)\]\.([A-Za-z_][A-Za-z0-9_]*)")
@@ -305,11 +309,12 @@ class _Expander:
 
     def resolve(self, spec: Mapping, cell: _Cell | None, i: int, where: str) -> dict | None:
         new = dict(spec)
-        if "between" in new and isinstance(new["between"], list):
-            ends = [self.point(e, cell, i, f"{where} `between`") for e in new["between"]]
-            if any(e is None for e in ends):
-                return None
-            new["between"] = ends
+        for key in ("between", "tangential", "normal"):  # (the last two: a contact's pairs of ends)
+            if key in new and isinstance(new[key], list):
+                ends = [self.point(e, cell, i, f"{where} `{key}`") for e in new[key]]
+                if any(e is None for e in ends):
+                    return None
+                new[key] = ends
         if "on" in new:
             on = new["on"]
             if isinstance(on, str) and cell is not None and on.startswith(("next.", "prev.")):

@@ -16,6 +16,7 @@ from hybrid.model.expr import parse
 from hybrid.model.loader import shown_key, shown_value  # a file's values shown alike in messages
 
 from .network_cells import expand_cells
+from .network_contacts import read_contacts
 
 __all__ = [
     "GROUND",
@@ -55,6 +56,7 @@ _TOP = {
     "plot",
     "orbit",
     "cells",
+    "contacts",
 }
 _MODEL = {"name", "title", "reference", "format"}
 _KEYS = {
@@ -154,6 +156,7 @@ class Network:
     orbit: dict | None = None
     origins: dict = field(default_factory=dict)
     cells: tuple = ()
+    contacts: tuple = ()  # the 2-D contacts (hybrid_models.network_contacts.Contact)
 
     def where(self, table: str, name: str) -> str:
         """Where an item is written, for messages: ``[table.name]``, or the cell and copy it comes from."""
@@ -414,6 +417,18 @@ def read_network(data: Mapping) -> Network:
                     _check_static(coef, static, presets, where)
             elements.append(Element(kinds[table], name, ends[0], ends[1], coef, static))
 
+    contacts = read_contacts(
+        _table(data, "contacts"),
+        masses=masses,
+        nodes=nodes,
+        params=params,
+        loc=loc,
+        claim=claim,
+        coef=_coef,
+        positive=_positive,
+        check_keys=_check_keys,
+    )
+
     forces: list[Force] = []
     for name, spec in tables["forces"].items():
         where = loc("forces", name)
@@ -484,6 +499,7 @@ def read_network(data: Mapping) -> Network:
         orbit=dict(data["orbit"]) if "orbit" in data else None,
         origins=origins,
         cells=cells,
+        contacts=contacts,
     )
     _check_topology(net)
     return net
@@ -548,10 +564,11 @@ def _check_topology(net: Network) -> None:
     for e in net.elements:
         touching[e.a].append(e)
         touching[e.b].append(e)
+    in_contact = {p for c in net.contacts for p in (*c.tangential, *c.normal)}
     for x in net.masses:
-        if not touching[x]:
+        if not touching[x] and x not in in_contact:
             raise ModelError(
-                f"{net.where('masses', x)} has no connection: no spring, damper or friction element touches it"
+                f"{net.where('masses', x)} has no connection: no spring, damper, friction element or contact touches it"
             )
     _check_friction_loops(net)
     for u in net.nodes:

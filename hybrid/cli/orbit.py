@@ -48,6 +48,14 @@ def register(sub) -> None:
         help="forcing periods simulated from the guess before Newton's method (default 10); if Newton "
         "fails from there, the orbit is sought by continuation in the forcing frequency (0: no fallback)",
     )
+    p.add_argument(
+        "--subharmonic",
+        type=positive_int,
+        default=1,
+        metavar="N",
+        help="seek an orbit of N forcing periods (a subharmonic; default 1), its multipliers those of the "
+        "map over N periods",
+    )
     add_tolerances(p)
     p.add_argument(
         "--samples-per-period",
@@ -69,6 +77,7 @@ def orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
     head = f"{system.name}" + (f", preset `{preset}`" if preset else "")
     head += (f", Omega = {omega:g} rad/s" if omega is not None else "") + f": period T = {orbit.period:.9g} s"
     head += " (autonomous: the period is an unknown, found with the orbit)" if system.period is None else ""
+    head += f" ({orbit.periods} forcing periods: a subharmonic orbit)" if orbit.periods > 1 else ""
     lines = [
         head,
         f"  computed with options={options_text(orbit.options)}, settings={options_text(orbit.settings)}",
@@ -100,6 +109,13 @@ def orbit_text(orbit: PeriodicOrbit, preset: str | None) -> str:
         lines.append(
             f"    {name:{width}s}  {amp:.9g}  {orbit.half_peak_to_peak[name]:.9g}" + (f" {u}" if u else "")
         )
+    k = orbit.attractor_periods
+    if k is not None and ((k > 1 and orbit.periods % k) or (k == 0 and not orbit.stable)):
+        lines.append(
+            f"  the transient settled on an orbit of {orbit.attractor_periods} forcing periods"
+            if orbit.attractor_periods
+            else "  the transient repeated after none of 1 to 8 forcing periods (not settled, or not periodic)"
+        )
     lines.append(f"  {orbit.message}")
     return "\n".join(lines)
 
@@ -122,7 +138,9 @@ def cmd_orbit(args) -> int:
                 x0,
                 mode0,
                 options=options,
-                settings=ShootingOptions(transient_periods=args.transient, samples_per_period=spp),
+                settings=ShootingOptions(
+                    transient_periods=args.transient, samples_per_period=spp, periods=args.subharmonic
+                ),
             )
         wall = time.perf_counter() - t0
         summary = {"omega": params.get("Omega"), "preset": preset, **orbit.to_dict()}

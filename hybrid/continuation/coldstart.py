@@ -175,7 +175,13 @@ def find_by_continuation(
                 continue
             try:
                 branch = continue_orbits(
-                    system, params, par, (start, p), options=options, settings=branch_settings
+                    system,
+                    params,
+                    par,
+                    (start, p),
+                    options=options,
+                    settings=branch_settings,
+                    periods=settings.periods,  # (a subharmonic's branch spans as many periods)
                 )
             except ValueError as exc:  # e.g. a start outside the parameter's domain or time range
                 tried.append(f"from {par}={start:.8g}: {exc}")

@@ -93,6 +93,9 @@ def _nested(owner: str, name: str, value, cls: type) -> None:
         raise InputTypeError(f"{owner}: `{name}` must be a {cls.__name__}, got {type(value).__name__}")
 
 
+#: Most forcing periods of a subharmonic orbit (:attr:`ShootingOptions.periods`).
+MAX_SUBHARMONIC = 64
+
 #: Fewest samples per period of an orbit's trajectory (its amplitudes are taken from the samples).
 MIN_SAMPLES = 16
 
@@ -152,17 +155,28 @@ class ShootingOptions:
         before Newton's method (>= 0). ``0`` with a given ``t0``: the section is the guess itself.
     samples_per_period : int
         Samples of the returned one-period trajectory (>= :data:`MIN_SAMPLES`).
+    periods : int
+        Forcing periods the orbit spans (1 to :data:`MAX_SUBHARMONIC`): ``N > 1`` seeks a
+        subharmonic orbit of ``N`` forcing periods, its monodromy over all ``N`` (issue 32). Forced
+        models only.
     """
 
     newton: NewtonOptions = NewtonOptions(tol=1e-9, max_iter=30)
     transient_periods: int = 10
     samples_per_period: int = 512
+    periods: int = 1
 
     def __post_init__(self):
         _plain_fields(self)
         _nested("ShootingOptions", "newton", self.newton, NewtonOptions)
         _integer("ShootingOptions", "transient_periods", self.transient_periods, 0)
         check_samples(self.samples_per_period, "ShootingOptions")
+        _integer("ShootingOptions", "periods", self.periods, 1)
+        if self.periods > MAX_SUBHARMONIC:
+            raise InputError(
+                f"ShootingOptions: `periods` = {self.periods!r}: a subharmonic orbit spans at most "
+                f"{MAX_SUBHARMONIC} forcing periods"
+            )
 
 
 @dataclass(frozen=True)

@@ -286,6 +286,11 @@ def autonomous_orbit(
     options = ORBIT_OPTIONS if options is None else options
     settings = ShootingOptions() if settings is None else settings
     check_orbit_inputs(system, options, settings, forced=False)
+    if settings.periods != 1:
+        raise InputError(
+            f"ShootingOptions: `periods` = {settings.periods!r} is for periodically forced models (a "
+            "subharmonic of the forcing); an autonomous orbit's period is an unknown found with it"
+        )
     phase = resolve_phase(system, phase)
     mode0 = mode0 if mode0 is not None else system.default_mode
     if mode0 is None:

@@ -45,7 +45,7 @@ class PeriodicOrbit:
     t0 : float
         Section time [s] (``0 <= t0 < period``; the forcing phase of the section).
     period : float
-        Forcing period [s].
+        Period of the orbit [s]: :attr:`periods` forcing periods.
     x0 : ndarray, shape (n_vars,)
         State at the section (quadratures 0), over ``system.variable_names``.
     mode0 : str
@@ -115,6 +115,9 @@ class PeriodicOrbit:
         :class:`hybrid.Branch` holds them).
     settings : ShootingOptions or None
         The shooting options it was computed with (likewise).
+    periods, attractor_periods : int, int or None
+        Forcing periods the orbit spans (> 1: a subharmonic), and those of the orbit its transient
+        settled on (:mod:`hybrid.orbits.subharmonic`; 0: none up to 8; None: no transient).
     """
 
     system: HybridSystem
@@ -146,6 +149,8 @@ class PeriodicOrbit:
     reason: str = ""
     options: SolverOptions | None = None
     settings: ShootingOptions | None = None
+    periods: int = 1
+    attractor_periods: int | None = None
 
     @property
     def converged(self) -> bool:
@@ -164,9 +169,7 @@ class PeriodicOrbit:
         mode); without components, :attr:`mode_fractions`."""
         return local_fractions(self.system, self.mode_fractions)
 
-    @property
-    def transitions_per_period(self) -> int:
-        return len(self.switch_times)
+    transitions_per_period = property(lambda self: len(self.switch_times))
 
     @property
     def floquet_multipliers(self) -> np.ndarray:
@@ -207,6 +210,7 @@ class PeriodicOrbit:
             "message": self.message,
             "options": plain_data(self.options),
             "settings": plain_data(self.settings),
+            **{"periods": self.periods, "attractor_periods": self.attractor_periods},
         }
 
     def __repr__(self) -> str:

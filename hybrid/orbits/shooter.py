@@ -67,7 +67,8 @@ class Shooter:
         # Without a free parameter the variational runs use the same compiled system.
         self.ext = CompiledSystem(system, self.params, (free,)) if free else self.cs
         T = self.period
-        self.sens = Sensitivity(self.ext, options, options.max_step or T / 16.0)
+        # (IDA's step bound a fraction of one forcing period, also on a map of several)
+        self.sens = Sensitivity(self.ext, options, options.max_step or T / (16.0 * self.periods))
         nb = len(self.names)
         self.s = self.sens.s[self.sens.s < nb]  # state part of the sensitivity variables
         self._gauge = gauge_functions(system)

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
@@ -48,6 +49,7 @@ from .orbit import (
 )
 from .section import _choose_section
 from .shooter import Shooter
+from .subharmonic import EXTRA_PERIODS, attractor_period, notice, settle, strobe_times
 
 __all__ = ["shoot_orbit", "solve_orbit"]
 
@@ -96,7 +98,7 @@ def shoot_orbit(
     if mode0 is None:
         raise InputError(f"`mode0` is required: model `{system.name}` declares no initial mode")
     system.mode(mode0)
-    shooter = Shooter(system, params, options)
+    shooter = Shooter(system, params, options, periods=settings.periods)
     if x0 is None:
         x0 = np.zeros(len(system.variable_names))
     y = initial_state(system, x0, mode0)
@@ -136,6 +138,12 @@ def solve_orbit(
     its ``reason`` (``"budget"``, ``"grazing"``, ``"evaluation-failed"``, ``"monodromy-failed"``).
     """
     at = [y, mode0, t_start, 0]  # last section state, mode, time and iteration (for a failure report)
+    orbit = _solve_any(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
+    return orbit if orbit.periods == shooter.periods else replace(orbit, periods=shooter.periods)
+
+
+def _solve_any(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
+    """:func:`solve_orbit`'s work, its failures as failed orbits."""
     try:
         return _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at)
     except BudgetExceeded as exc:
@@ -164,15 +172,20 @@ def solve_orbit(
 def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, samples, at) -> PeriodicOrbit:
     T = shooter.period
     t_sec, mode = t_start, mode0
+    attractor = None
     if transient_periods > 0:
+        t_end = t_start + transient_periods * T
+        Tf = T / shooter.periods  # the forcing period
+        grid = np.linspace(t_start + (transient_periods - 1) * T, t_end, 257)
+        strobe = strobe_times(t_start, t_end, Tf)
         tr = run_compiled(
             shooter.cs,
             shooter.options,
             t_start,
-            t_start + transient_periods * T,
+            t_end,
             y,
             shooter.cs.mode_id(mode0),
-            np.linspace(t_start + (transient_periods - 1) * T, t_start + transient_periods * T, 257),
+            np.unique(np.concatenate([grid, strobe[:-1]])),
             True,
         )
         shooter.nfev += tr.nfev
@@ -192,7 +205,23 @@ def _solve_orbit(shooter, y, mode0, t_start, transient_periods, tol, max_iter, s
             return failed_orbit(
                 shooter, y, mode0, t_start, 0, math.inf, f"transient failed: {tr.message}", "transient-failed"
             )
+        keep = np.array([i for i, n in enumerate(shooter.names) if n not in shooter.system.quadratures])
+        attractor, mismatch = attractor_period(tr.t, tr.y, Tf, keep)
+        last = (tr.t_final, tr.y_final, tr.mode_final)
         t_sec, y, mode = _choose_section(tr, T)
     t_sec = t_sec - math.floor(t_sec / T) * T
     at[:] = [y, mode, t_sec, 0]
-    return newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
+    orbit = newton(shooter, y, mode, t_sec, tol, max_iter, samples, at)
+    if attractor is not None:
+        n = transient_periods * shooter.periods
+        if attractor == 0 and orbit.converged and orbit.stability == "unstable":
+
+            def run(a, b, y0, m0, t_eval):
+                return run_compiled(
+                    shooter.cs, shooter.options, a, b, y0, shooter.cs.mode_id(m0), t_eval, True
+                )
+
+            attractor, mismatch = settle(run, *last, Tf, keep)
+            n += EXTRA_PERIODS
+        notice(attractor, mismatch, n, shooter.periods)
+    return replace(orbit, periods=shooter.periods, attractor_periods=attractor)
