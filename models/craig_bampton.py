@@ -139,7 +139,9 @@ def craig_bampton(structure: Structure, boundary: Sequence[str], modes: int, *, 
     names = tuple(structure.dofs[k] for k in b) + tuple(f"eta{j + 1}" for j in range(modes))
     taken = set(structure.dofs[k] for k in b)
     if taken & set(names[nb:]):
-        raise ModelError(f"{at}: a boundary DOF is named like a modal coordinate (eta1, eta2, ...); rename it")
+        raise ModelError(
+            f"{at}: a boundary DOF is named like a modal coordinate (eta1, eta2, ...); rename it"
+        )
 
     def project(A: np.ndarray) -> np.ndarray:
         R = T.T @ A @ T

@@ -164,7 +164,9 @@ def read_structures(
         if isinstance(src, Structure):  # from Python
             s = src
             if dofs is not None or damping:
-                s = Structure.from_arrays(s.M, s.K, dofs or s.dofs, None if damping else s.C, source=where, **damping)
+                s = Structure.from_arrays(
+                    s.M, s.K, dofs or s.dofs, None if damping else s.C, source=where, **damping
+                )
         elif isinstance(src, str) and src.strip():
             path = Path(src)
             if not path.is_absolute() and home is not None:
@@ -179,10 +181,14 @@ def read_structures(
         if "reduce" in spec:
             red = spec["reduce"]
             if not isinstance(red, Mapping) or set(red) != {"modes"}:
-                raise ModelError(f"{where} `reduce` must be {{ modes = N }} (Craig-Bampton), got {shown_value(red)}")
+                raise ModelError(
+                    f"{where} `reduce` must be {{ modes = N }} (Craig-Bampton), got {shown_value(red)}"
+                )
             modes = red["modes"]
             if isinstance(modes, bool) or not isinstance(modes, int) or modes < 0:
-                raise ModelError(f"{where} `reduce` `modes` must be an integer >= 0, got {shown_value(modes)}")
+                raise ModelError(
+                    f"{where} `reduce` `modes` must be an integer >= 0, got {shown_value(modes)}"
+                )
         desc = spec.get("description", "")
         if not isinstance(desc, str):
             raise ModelError(f"{where} `description` must be a string")
@@ -245,10 +251,14 @@ def describe_structures(structures: Mapping[str, NetStructure], count: int = 6) 
                 f"    Craig-Bampton: {len(r.boundary)} boundary DOFs ({', '.join(r.boundary[:8])}) + "
                 f"{r.modes} fixed-interface modes"
             )
-            lines.append("    natural frequencies of the free structure [rad/s]: full, reduced, relative error")
+            lines.append(
+                "    natural frequencies of the free structure [rad/s]: full, reduced, relative error"
+            )
             for k, (wf, wr, e) in enumerate(r.frequencies(count), start=1):
                 lines.append(f"      {k:>2}  {wf:14.6g}  {wr:14.6g}  {e:10.2e}")
         else:
             w = s.full.frequencies(count)
-            lines.append("    natural frequencies of the free structure [rad/s]: " + ", ".join(f"{x:.6g}" for x in w))
+            lines.append(
+                "    natural frequencies of the free structure [rad/s]: " + ", ".join(f"{x:.6g}" for x in w)
+            )
     return lines

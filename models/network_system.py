@@ -75,7 +75,9 @@ class _Derivation:
     def __init__(self, net: Network):
         self.net = net
         self.coords = net.coords  # coordinates of structures -> velocities
-        self.touching: dict[str, list[Element]] = {p: [] for p in (*net.masses, *net.nodes, *self.coords, GROUND)}
+        self.touching: dict[str, list[Element]] = {
+            p: [] for p in (*net.masses, *net.nodes, *self.coords, GROUND)
+        }
         for e in net.elements:
             self.touching[e.a].append(e)
             self.touching[e.b].append(e)
@@ -290,7 +292,9 @@ class _Derivation:
         """Velocities of the masses a stop joins: the ground's, or their momentum-weighted mean."""
         ends = [p for p in (e.a, e.b) if p in self.net.masses]
         if GROUND in (e.a, e.b):
-            return {self.vel(x): self.vel(GROUND) for x in (e.a, e.b) if x in self.net.masses or x in self.coords}
+            return {
+                self.vel(x): self.vel(GROUND) for x in (e.a, e.b) if x in self.net.masses or x in self.coords
+            }
         if len(ends) < 2:
             return {}
         num = " + ".join(f"{_paren(self.net.masses[x][0])}*{self.net.masses[x][1]}" for x in ends)
@@ -340,10 +344,12 @@ def network_system(net: Network) -> HybridSystem:
     for s in net.structures.values():
         for q, v, dof in zip(s.coords, s.velocities, s.model.dofs, strict=True):
             what = f"DOF {dof} of structure {s.name}" + (f" ({s.description})" if s.description else "")
+            unit = "m"
             if s.reduction is not None and dof not in s.reduction.boundary:
                 what = f"modal coordinate {dof} of structure {s.name} (Craig-Bampton, mass-normalised)"
-            variables.append(Variable(q, "m", what))
-            variables.append(Variable(v, "m/s", f"velocity of {what}"))
+                unit = "m kg^(1/2)"
+            variables.append(Variable(q, unit, what))
+            variables.append(Variable(v, f"{unit}/s", f"velocity of {what}"))
     for u, vu in vel_var.items():
         variables.append(Variable(vu, "m/s", f"velocity of the massless node {u} (a slave variable)"))
     for e in friction:

@@ -170,7 +170,11 @@ class Structure:
                 "mass (condense massless DOFs out, or reduce by Craig-Bampton)"
             ) from None
         _semidefinite(K, "K", where)
-        given = [k for k, v in (("C", C), ("rayleigh", rayleigh), ("modal_damping", modal_damping)) if v is not None]
+        given = [
+            k
+            for k, v in (("C", C), ("rayleigh", rayleigh), ("modal_damping", modal_damping))
+            if v is not None
+        ]
         if len(given) > 1:
             raise ModelError(f"{where}: give one damping, not {' and '.join(given)}")
         if C is not None:
@@ -206,7 +210,9 @@ def _dof_names(dofs: object, n: int, where: str) -> tuple[str, ...]:
         raise ModelError(f"{where}: dofs must be a list of {n} names, got {type(dofs).__name__}")
     names = [str(d).strip() if isinstance(d, str | np.str_) else d for d in list(dofs)]
     if len(names) != n:
-        raise ModelError(f"{where}: {len(names)} DOF names for {n} DOFs (M is {n}x{n}); give one name per row")
+        raise ModelError(
+            f"{where}: {len(names)} DOF names for {n} DOFs (M is {n}x{n}); give one name per row"
+        )
     bad = [d for d in names if not _valid_dof(d)]
     if bad:
         raise ModelError(
@@ -268,7 +274,9 @@ def _modal_matrix(s: Structure, ratios: object, where: str) -> np.ndarray:
 
 
 def _real(v: object) -> bool:
-    return isinstance(v, int | float | np.floating | np.integer) and not isinstance(v, bool) and math.isfinite(v)
+    return (
+        isinstance(v, int | float | np.floating | np.integer) and not isinstance(v, bool) and math.isfinite(v)
+    )
 
 
 def rayleigh(M: np.ndarray, K: np.ndarray, a: float, b: float) -> np.ndarray:
@@ -295,7 +303,9 @@ def modal_damping(M: np.ndarray, K: np.ndarray, ratios: Sequence[float]) -> np.n
 # ----------------------------------------------------------------------------
 def _check_file(path: Path, what: str, where: str) -> None:
     if not path.exists():
-        raise ModelError(f"{where}: the {what} {str(path)!r} does not exist (paths are relative to the model file)")
+        raise ModelError(
+            f"{where}: the {what} {str(path)!r} does not exist (paths are relative to the model file)"
+        )
     if path.is_file() and path.stat().st_size > MAX_MATRIX_BYTES:
         raise ModelError(f"{where}: {str(path)!r} has more than {MAX_MATRIX_BYTES} bytes")
 
@@ -352,7 +362,9 @@ def read_matrices(
             "or give `dofs = [...]` in the structure's table"
         )
     if "C" in arrays and (rayleigh is not None or modal_damping is not None):
-        raise ModelError(f"{at}: the file holds a damping matrix C; do not also give `rayleigh` or `modal_damping`")
+        raise ModelError(
+            f"{at}: the file holds a damping matrix C; do not also give `rayleigh` or `modal_damping`"
+        )
     return Structure.from_arrays(
         arrays["M"],
         arrays["K"],

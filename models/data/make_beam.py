@@ -33,21 +33,30 @@ def beam_matrices(n: int = ELEMENTS, length: float = LENGTH) -> tuple[np.ndarray
     EI = E * WIDTH * HEIGHT**3 / 12.0
     rhoA = RHO * WIDTH * HEIGHT
     le = length / n
-    k = EI / le**3 * np.array(
-        [
-            [12, 6 * le, -12, 6 * le],
-            [6 * le, 4 * le**2, -6 * le, 2 * le**2],
-            [-12, -6 * le, 12, -6 * le],
-            [6 * le, 2 * le**2, -6 * le, 4 * le**2],
-        ]
+    k = (
+        EI
+        / le**3
+        * np.array(
+            [
+                [12, 6 * le, -12, 6 * le],
+                [6 * le, 4 * le**2, -6 * le, 2 * le**2],
+                [-12, -6 * le, 12, -6 * le],
+                [6 * le, 2 * le**2, -6 * le, 4 * le**2],
+            ]
+        )
     )
-    m = rhoA * le / 420.0 * np.array(
-        [
-            [156, 22 * le, 54, -13 * le],
-            [22 * le, 4 * le**2, 13 * le, -3 * le**2],
-            [54, 13 * le, 156, -22 * le],
-            [-13 * le, -3 * le**2, -22 * le, 4 * le**2],
-        ]
+    m = (
+        rhoA
+        * le
+        / 420.0
+        * np.array(
+            [
+                [156, 22 * le, 54, -13 * le],
+                [22 * le, 4 * le**2, 13 * le, -3 * le**2],
+                [54, 13 * le, 156, -22 * le],
+                [-13 * le, -3 * le**2, -22 * le, 4 * le**2],
+            ]
+        )
     )
     size = 2 * (n + 1)
     M = np.zeros((size, size))
