@@ -53,6 +53,7 @@ from hybrid import HybridSystem
 
 from .network_draw import draw_network, force_text
 from .network_read import GROUND, Network, read_network
+from .network_structures import describe_structures
 from .network_system import network_system
 
 __all__ = [
@@ -77,6 +78,7 @@ def describe_network(net: Network) -> str:
         lines.append(f"  mass   {x:<10} m = {m}, velocity {v}" + (f"  ({desc})" if desc else ""))
     for u, desc in net.nodes.items():
         lines.append(f"  node   {u:<10} massless" + (f"  ({desc})" if desc else ""))
+    lines += describe_structures(net.structures)
     ground = "ground (moving: y = " + f"{net.base[0]}*sin({net.base[1]}*t))" if net.base else "ground"
     lines.append(f"  {ground}")
     symbols = {"spring": "/\\/\\", "damper": "[==]", "friction": "]||["}

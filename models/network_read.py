@@ -17,6 +17,7 @@ from hybrid.model.loader import shown_key, shown_value  # a file's values shown 
 
 from .network_cells import expand_cells
 from .network_contacts import read_contacts
+from .network_structures import finish_structures, read_structures
 
 __all__ = [
     "GROUND",
@@ -57,6 +58,7 @@ _TOP = {
     "orbit",
     "cells",
     "contacts",
+    "structures",
 }
 _MODEL = {"name", "title", "reference", "format"}
 _KEYS = {
@@ -140,6 +142,9 @@ class Network:
         Generated name -> the cell and copy it comes from (empty without ``[cells]``).
     cells : tuple of (str, int, str)
         Each cell's name, number of copies and layout (``chain``, ``chain, fixed ends``, ``ring``).
+    structures : dict of str to NetStructure
+        The linear structures given by matrices (:mod:`hybrid_models.network_structures`); their
+        coordinates ``NAME_DOF`` are points of the network as masses are.
     """
 
     name: str
@@ -157,6 +162,12 @@ class Network:
     origins: dict = field(default_factory=dict)
     cells: tuple = ()
     contacts: tuple = ()  # the 2-D contacts (hybrid_models.network_contacts.Contact)
+    structures: dict = field(default_factory=dict)
+
+    @property
+    def coords(self) -> dict[str, str]:
+        """Coordinate of a structure (``NAME_DOF``) -> its velocity variable."""
+        return {q: v for s in self.structures.values() for q, v in zip(s.coords, s.velocities, strict=True)}
 
     def where(self, table: str, name: str) -> str:
         """Where an item is written, for messages: ``[table.name]``, or the cell and copy it comes from."""
@@ -384,9 +395,10 @@ def read_network(data: Mapping) -> Network:
         if not isinstance(desc, str):
             raise ModelError(f"{where} `description` must be a string")
         nodes[u] = desc
-    if not masses:
-        raise ModelError("[masses]: a network needs at least one mass")
-    points = set(masses) | set(nodes) | {GROUND}
+    specs, aliases = read_structures(data["structures"], claim) if "structures" in data else ({}, {})
+    if not masses and not specs:
+        raise ModelError("[masses]: a network needs at least one mass (or a structure)")
+    points = set(masses) | set(nodes) | {GROUND} | set(aliases.values())
 
     elements: list[Element] = []
     coef_key = {"springs": "stiffness", "dampers": "coefficient", "friction": "sliding"}
@@ -399,11 +411,14 @@ def read_network(data: Mapping) -> Network:
             ends = spec["between"]
             if not (isinstance(ends, list) and len(ends) == 2 and all(isinstance(e, str) for e in ends)):
                 raise ModelError(f"{where} `between` must be a list of two names, got {shown_value(ends)}")
+            ends = [aliases.get(end, end) for end in ends]  # a structure's DOF: NAME.DOF
             for end in ends:
                 if end not in points:
                     raise ModelError(
                         f"{where} `between`: unknown end `{shown_key(end)}`; masses: {_listed(masses)}; "
-                        f"nodes: {_listed(nodes) or 'none'}; or {GROUND}"
+                        f"nodes: {_listed(nodes) or 'none'}; "
+                        + (f"DOFs of structures: {_listed(aliases)}; " if aliases else "")
+                        + f"or {GROUND}"
                     )
             if ends[0] == ends[1]:
                 raise ModelError(f"{where} `between`: both ends are `{ends[0]}`")
@@ -434,9 +449,11 @@ def read_network(data: Mapping) -> Network:
         where = loc("forces", name)
         spec = _check_keys(spec, *_KEYS["forces"], where)
         claim(name, where)
-        if not isinstance(spec["on"], str) or spec["on"] not in masses:
+        on = aliases.get(spec["on"], spec["on"]) if isinstance(spec["on"], str) else spec["on"]
+        if not isinstance(on, str) or (on not in masses and on not in aliases.values()):
             raise ModelError(
-                f"{where} `on` = {shown_value(spec['on'])}: a force acts on a mass; masses: {_listed(masses)}"
+                f"{where} `on` = {shown_value(spec['on'])}: a force acts on a mass or a structure's DOF; "
+                f"masses: {_listed(masses) or 'none'}" + (f"; DOFs: {_listed(aliases)}" if aliases else "")
             )
         if "amplitude" in spec and "harmonics" in spec:
             raise ModelError(f"{where}: give `amplitude` (one harmonic) or `harmonics` (several), not both")
@@ -457,7 +474,7 @@ def read_network(data: Mapping) -> Network:
         forces.append(
             Force(
                 name,
-                spec["on"],
+                on,
                 got.get("offset"),
                 got.get("amplitude"),
                 got.get("frequency"),
@@ -476,6 +493,8 @@ def read_network(data: Mapping) -> Network:
         if extra_table in data and not isinstance(data[extra_table], Mapping):
             raise ModelError(f"[{extra_table}] must be a table")
 
+    attached = {p for e in elements for p in (e.a, e.b)} | {f.on for f in forces}
+    structures = finish_structures(specs, attached, claim)
     cells = tuple(
         (
             c,
@@ -500,6 +519,7 @@ def read_network(data: Mapping) -> Network:
         origins=origins,
         cells=cells,
         contacts=contacts,
+        structures=structures,
     )
     _check_topology(net)
     return net
@@ -560,7 +580,7 @@ def _check_static(sliding: str, static: str, presets: Mapping, where: str) -> No
 
 def _check_topology(net: Network) -> None:
     """Refuse the networks the derivation cannot handle, naming the element."""
-    touching: dict[str, list[Element]] = {p: [] for p in (*net.masses, *net.nodes, GROUND)}
+    touching: dict[str, list[Element]] = {p: [] for p in (*net.masses, *net.nodes, *net.coords, GROUND)}
     for e in net.elements:
         touching[e.a].append(e)
         touching[e.b].append(e)

@@ -75,7 +75,10 @@ class _Derivation:
 
     def __init__(self, net: Network):
         self.net = net
-        self.touching: dict[str, list[Element]] = {p: [] for p in (*net.masses, *net.nodes, GROUND)}
+        self.coords = net.coords  # coordinates of structures -> velocities
+        self.touching: dict[str, list[Element]] = {
+            p: [] for p in (*net.masses, *net.nodes, *self.coords, GROUND)
+        }
         for e in net.elements:
             self.touching[e.a].append(e)
             self.touching[e.b].append(e)
@@ -121,6 +124,8 @@ class _Derivation:
             return "dy_base" if self.net.base else "0"
         if p in self.net.masses:
             return self.net.masses[p][1]
+        if p in self.coords:
+            return self.coords[p]
         if p in self.vel_var:
             return self.vel_var[p]
         # a free node joined by springs to masses and the ground only: the time derivative of its balance
@@ -167,7 +172,10 @@ class _Derivation:
         return self.total(terms)
 
     def acceleration(self, x: str) -> str:
-        """``x'' `` of a mass (its momentum balance) [m/s^2]."""
+        """``x'' `` of a mass (its momentum balance) or of a structure's coordinate (its definition
+        ``acc_X``) [m/s^2]."""
+        if x in self.coords:
+            return f"acc_{x}"
         return f"({self.net_force(x)})/{_paren(self.net.masses[x][0])}"
 
     def balance(self, u: str) -> str:
@@ -193,6 +201,9 @@ class _Derivation:
                 > HUB_TERMS
             ):
                 self.hubs[x] = f"net_{x}"
+        for x in self.coords:  # a structure's accelerations name the forces on its attached DOFs
+            if self.touching[x] or x in self.forces_on:
+                self.hubs[x] = f"net_{x}"
 
     # a friction element as a component -----------------------------------------
     def component(self, e: Element) -> Component:
@@ -205,9 +216,12 @@ class _Derivation:
         if not nodes:  # between masses, or a mass and the ground: 0 = a_B - a_A
             if GROUND in (e.a, e.b):
                 x = e.b if e.a == GROUND else e.a
-                stick = self.net_force(x)
-                if self.net.base:
-                    stick = f"{stick} - {_times(self.net.masses[x][0], 'ddy_base')}"
+                if x in self.coords:  # a structure's DOF: its acceleration is the ground's
+                    stick = self.diff(self.acceleration(x), self.acc_ground())
+                else:
+                    stick = self.net_force(x)
+                    if self.net.base:
+                        stick = f"{stick} - {_times(self.net.masses[x][0], 'ddy_base')}"
             else:
                 stick = f"{self.acceleration(e.b)} - {self.acceleration(e.a)}"
             modes["stick"][1][f] = stick
@@ -284,7 +298,9 @@ class _Derivation:
         """Velocities of the masses a stop joins: the ground's, or their momentum-weighted mean."""
         ends = [p for p in (e.a, e.b) if p in self.net.masses]
         if GROUND in (e.a, e.b):
-            return {self.net.masses[x][1]: self.vel(GROUND) for x in ends}
+            return {
+                self.vel(x): self.vel(GROUND) for x in (e.a, e.b) if x in self.net.masses or x in self.coords
+            }
         if len(ends) < 2:
             return {}
         num = " + ".join(f"{_paren(self.net.masses[x][0])}*{self.net.masses[x][1]}" for x in ends)
@@ -331,6 +347,15 @@ def network_system(net: Network) -> HybridSystem:
         variables.append(
             Variable(u, "m", f"displacement of the massless node {u}" + (f" ({desc})" if desc else ""))
         )
+    for s in net.structures.values():
+        for q, v, dof in zip(s.coords, s.velocities, s.model.dofs, strict=True):
+            what = f"DOF {dof} of structure {s.name}" + (f" ({s.description})" if s.description else "")
+            unit = "m"
+            if s.reduction is not None and dof not in s.reduction.boundary:
+                what = f"modal coordinate {dof} of structure {s.name} (Craig-Bampton, mass-normalised)"
+                unit = "m kg^(1/2)"
+            variables.append(Variable(q, unit, what))
+            variables.append(Variable(v, f"{unit}/s", f"velocity of {what}"))
     for u, vu in vel_var.items():
         variables.append(Variable(vu, "m/s", f"velocity of the massless node {u} (a slave variable)"))
     for e in friction:
@@ -342,18 +367,24 @@ def network_system(net: Network) -> HybridSystem:
     variables.append(Variable("D", "J", "energy dissipated by friction and dampers"))
 
     generated = {"W", "D", "E"} | {f"f_{e.name}" for e in friction} | {f"w_{e.name}" for e in friction}
-    generated |= set(vel_var.values()) | set(d.hubs.values()) | contacts2d.generated_names(net.contacts)
+    generated |= (
+        set(vel_var.values())
+        | set(d.hubs.values())
+        | contacts2d.generated_names(net.contacts)
+        | {f"acc_{q}" for q in d.coords}
+    )
     if net.base:
         generated |= {"y_base", "dy_base", "ddy_base"}
     taken = set(net.masses) | {v for _, v, _ in net.masses.values()} | set(net.nodes) | set(net.parameters)
+    taken |= set(d.coords) | set(d.coords.values()) | set(net.structures)
     taken |= {e.name for e in net.elements} | {f.name for f in net.forces}
     clash = generated & taken
     if clash:
         shown = ", ".join(sorted(clash)[:8])
         raise ModelError(
             f"the name(s) {shown} are generated by the builder (W, D, E, f_NAME, w_NAME of friction elements, "
-            "vel_U of nodes, net_X of masses with many elements, s_C, vs_C, T_C, N_C of contacts, y_base, dy_base, "
-            "ddy_base); rename the item(s) "
+            "vel_U of nodes, net_X of masses with many elements and of structures' DOFs, acc_X of structures' DOFs, "
+            "s_C, vs_C, T_C, N_C of contacts, y_base, dy_base, ddy_base); rename the item(s) "
             "in the file"
         )
 
@@ -375,6 +406,8 @@ def network_system(net: Network) -> HybridSystem:
     for x, name in d.hubs.items():
         definitions[name] = d._net_force_text(x)
     energy_terms = [f"+0.5*{_paren(m)}*{v}**2" for m, v, _ in net.masses.values()]
+    for s in net.structures.values():
+        energy_terms += s.energy_terms()
     for e in net.elements:
         if e.kind == "spring":
             energy_terms.append(f"+0.5*{_paren(e.coef)}*({d.diff(d.pos(e.b), d.pos(e.a))})**2")
@@ -389,10 +422,16 @@ def network_system(net: Network) -> HybridSystem:
     for x, (_, v, _) in net.masses.items():
         equations[x] = v
         equations[v] = d.acceleration(x)
+    for s in net.structures.values():
+        own = s.equations({q: d.net_force(q) for q in s.coords if q in d.hubs}, d.total)
+        for q, v in zip(s.coords, s.velocities, strict=True):
+            equations[q] = own[q]
+            definitions[f"acc_{q}"] = own[v]
+            equations[v] = f"acc_{q}"
     for u in net.nodes:
         if u not in d.held:
             d._free_node(u, (equations, own_alg))
-    power = [f"+{f.name}*{net.masses[f.on][1]}" for f in net.forces]
+    power = [f"+{f.name}*{d.vel(f.on)}" for f in net.forces]
     if net.base:
         # power the moving ground puts in: minus (force of the elements on the ground) x ground velocity
         for e in d.touching[GROUND]:
@@ -409,6 +448,8 @@ def network_system(net: Network) -> HybridSystem:
     for e in net.elements:
         if e.kind == "damper":
             dissipation.append(f"+{_paren(e.coef)}*({d.diff(d.vel(e.b), d.vel(e.a))})**2")
+    for s in net.structures.values():
+        dissipation += s.dissipation_terms()
     equations["D"] = d.total(dissipation)
 
     components = [d.component(e) for e in friction]
@@ -427,7 +468,8 @@ def network_system(net: Network) -> HybridSystem:
     units |= {"E": "J"} | {f.name: "N" for f in net.forces}
     if net.base:
         units["y_base"] = "m"
-    plot: dict = {"displacements": list(net.masses)[:6], "units": units}
+    shown = list(net.masses) + [q for q in d.coords if q in d.hubs]
+    plot: dict = {"displacements": shown[:6], "units": units}
     orbit: dict = {}
     if friction:
         # the figure draws the first element: shade where it sticks (a pattern: every mode of the others)

@@ -20,7 +20,8 @@ def test_the_models_folder_installs_as_hybrid_models():
     assert "models" not in tool["packages"]
     assert "hybrid_models" in tool["packages"]
     assert tool["package-dir"] == {"hybrid_models": "models"}
-    assert tool["package-data"] == {"hybrid_models": ["*.toml"]}
+    # the structures' matrices beside the model files (issue 32), and the script that writes them
+    assert tool["package-data"] == {"hybrid_models": ["*.toml", "data/*.npz", "data/*.py"]}
     # the installed package carries every model file of the folder
     shipped = {p.name for p in (ROOT / "models").glob("*.toml")}
     assert shipped

@@ -57,7 +57,9 @@ from __future__ import annotations
 
 import stat
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -73,6 +75,7 @@ __all__ = [
     "describe_model_file",
     "draw_model_file",
     "MAX_FILE_BYTES",
+    "model_file",
     "shown_key",
     "shown_value",
 ]
@@ -107,6 +110,29 @@ _MODE = {"derivatives", "algebraic", "definitions"}
 _TRANS = {"source", "target", "guard", "direction", "name", "reset"}
 
 
+#: The model file being built (set while its format's methods run), for formats whose files name
+#: other files beside them (e.g. the matrices of a structure, relative to the model file).
+_MODEL_FILE: ContextVar[Path | None] = ContextVar("model_file", default=None)
+
+
+def model_file() -> Path | None:
+    """The model file whose content is being built or described, or None (content from a dict).
+
+    A model format whose files name other files (relative to the model file) resolves them
+    against ``model_file().parent``.
+    """
+    return _MODEL_FILE.get()
+
+
+@contextmanager
+def _reading(path: Path) -> Iterator[None]:
+    token = _MODEL_FILE.set(path.resolve())
+    try:
+        yield
+    finally:
+        _MODEL_FILE.reset(token)
+
+
 def load_system(path: str | Path) -> HybridSystem:
     """Read a model file (TOML).
 
@@ -128,7 +154,8 @@ def load_system(path: str | Path) -> HybridSystem:
     path = Path(path)
     data = read_model_file(path)
     try:
-        return system_from_dict(data)
+        with _reading(path):
+            return system_from_dict(data)
     except ModelError as exc:
         raise ModelError(f"{path.name}: {exc}") from None
 
@@ -142,7 +169,8 @@ def _with_format(path: str | Path, method: str, *args):
         fmt = _format(data)
         if fmt is None or not hasattr(fmt, method):
             return False, None
-        return True, getattr(fmt, method)(data, *args)
+        with _reading(path):
+            return True, getattr(fmt, method)(data, *args)
     except ModelError as exc:
         raise ModelError(f"{path.name}: {exc}") from None
 
