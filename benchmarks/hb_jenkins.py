@@ -171,7 +171,9 @@ def exact_backbone(amplitudes, osc: Jenkins = Jenkins()) -> dict:
             z, info, ier, msg = fsolve(res, [g["omega"][0], g["xi"][0]], xtol=1e-15, full_output=True)
             r = float(np.max(np.abs(res(z))))
             if r > 1e-11:
-                raise RuntimeError(f"exact_backbone: shooting did not converge at a = {a}: {msg} (residual {r})")
+                raise RuntimeError(
+                    f"exact_backbone: shooting did not converge at a = {a}: {msg} (residual {r})"
+                )
             omega, xi = float(z[0]), float(z[1])
             t1, _, _, _ = _half_period(osc, a, omega, xi)
             vals = (a, omega, xi, xi / (2 * omega), 4 * osc.Fs * (a - a_s), t1 * omega / math.pi, r)
@@ -194,15 +196,15 @@ class HarmonicBalance:
     H : int
         Highest harmonic (odd).
     N : int, optional
-        Time samples per period (default ``64 (H + 1)``, at least 256): the sampled play operator's
-        error is of order ``1/N^2``.
+        Time samples per period (default ``256 (H + 1)``, at least 1024): the sampled play
+        operator's error is of order ``1/N^2`` (a turning point between two samples is cut off).
     """
 
     def __init__(self, osc: Jenkins, H: int, N: int | None = None):
         if H < 1 or H % 2 == 0:
             raise ValueError(f"HarmonicBalance: H must be odd and positive, got {H}")
         self.osc, self.H = osc, H
-        self.N = N or max(256, 64 * (H + 1))
+        self.N = N or max(1024, 256 * (H + 1))
         self.h = np.arange(1, H + 1, 2, dtype=float)
         tau = 2.0 * np.pi * np.arange(self.N) / self.N
         ht = np.outer(tau, self.h)

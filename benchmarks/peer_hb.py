@@ -12,8 +12,10 @@ Fs = 1) to ground (``benchmarks/hb_jenkins.py`` holds the mathematics):
   reference: this library's periodic orbit with the exact integrator on the network file
   ``benchmarks/data/jenkins_forced.toml``.
 
-Harmonic balance on the odd harmonics 1, 3, ..., H for H = 1, 3, ..., 63, with N = max(256, 64 (H+1))
-time samples per period (alternating frequency-time), by
+Harmonic balance on the odd harmonics 1, 3, ..., H for H = 1, 3, ..., 63, with N = max(1024, 256 (H+1))
+time samples per period (alternating frequency-time; the sampled play operator errs by O(1/N^2)
+where a turning point falls between samples, as in a forced orbit: with 64 (H+1) samples that error
+was the floor near 1e-6 beyond H = 31, measured), by
 
 * ``aft``: the minimal harmonic balance of ``hb_jenkins.HarmonicBalance`` (numpy, exact Jacobian of
   the sampled play operator), backbone and forced response;
@@ -40,7 +42,6 @@ import argparse
 import csv
 import json
 import logging
-import math
 import os
 import sys
 import time
@@ -68,7 +69,7 @@ def load() -> float:
 
 def samples(H: int) -> int:
     """Time samples per period at H (both harmonic-balance codes)."""
-    return max(256, 64 * (H + 1))
+    return max(1024, 256 * (H + 1))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -79,7 +80,8 @@ def samples(H: int) -> int:
 class ForcedCase:
     """A forced response compared point by point: its exact reference and its harmonic balances.
 
-    ``reference(omegas) -> (amplitudes, seconds)`` is this library's exact result; ``osc`` the
+    ``reference(omegas) -> (amplitudes, seconds cold, seconds warm)`` is this library's exact result
+    (each orbit from the default guess; from the previous frequency's orbit); ``osc`` the
     parameters both harmonic-balance codes take; ``pyharm(osc, H, N) -> input dict`` pyHarm's model.
     """
 
@@ -95,25 +97,45 @@ def library_forced(model_file: Path, params: dict) -> Callable:
     """Exact forced amplitudes (max x) from this library's periodic orbits, exact integrator."""
 
     def run(omegas):
-        from hybrid import Exact, SolverOptions, load_system, periodic_orbit
+        from hybrid import Exact, ShootingOptions, SolverOptions, load_system, periodic_orbit
 
         system = load_system(model_file)
         ix = system.variable_names.index("x")
         p = dict(system.preset("standard"), **params)
-        amps, secs = [], 0.0
-        for W in omegas:
-            p["Omega"] = W
-            t = time.perf_counter()
-            orbit = periodic_orbit(system, p, options=SolverOptions(method=Exact()))
-            secs += time.perf_counter() - t
-            if not orbit.converged:
-                raise SystemExit(f"the exact periodic orbit did not converge at Omega = {W}: {orbit.message}")
-            # max x is reached where v = 0, where the sliding slider stops: a switch of the orbit
-            stops = [abs(e.x_minus[ix]) for e in orbit.trajectory.events if ".stop" in e.guard]
-            if not stops:
-                raise SystemExit(f"Omega = {W}: the orbit does not slip; pick a frequency where it does")
-            amps.append(max(stops))
-        return np.array(amps), secs
+        options = SolverOptions(method=Exact())
+        out = {}
+        for how in ("cold", "warm"):
+            amps, secs, prev = [], 0.0, None
+            for W in omegas:
+                p["Omega"] = W
+                t = time.perf_counter()
+                if how == "cold" or prev is None:  # the default guess: a transient from rest, then Newton
+                    orbit = periodic_orbit(system, p, options=options)
+                else:  # from the previous frequency's orbit, as a continuation would
+                    orbit = periodic_orbit(
+                        system,
+                        p,
+                        prev.x0,
+                        prev.mode0,
+                        t0=prev.t0,
+                        options=options,
+                        settings=ShootingOptions(transient_periods=0),
+                    )
+                secs += time.perf_counter() - t
+                if not orbit.converged:
+                    raise SystemExit(
+                        f"the exact periodic orbit did not converge at Omega = {W}: {orbit.message}"
+                    )
+                prev = orbit
+                # max x is reached where v = 0, where the sliding slider stops: a switch of the orbit
+                stops = [abs(e.x_minus[ix]) for e in orbit.trajectory.events if ".stop" in e.guard]
+                if not stops:
+                    raise SystemExit(f"Omega = {W}: the orbit does not slip; pick a frequency where it does")
+                amps.append(max(stops))
+            out[how] = (np.array(amps), secs)
+        if np.max(np.abs(out["warm"][0] / out["cold"][0] - 1.0)) > 1e-10:
+            raise SystemExit(f"the warm-started orbits differ from the cold ones: {out}")
+        return out["cold"][0], out["cold"][1], out["warm"][1]
 
     return run
 
@@ -123,9 +145,18 @@ def pyharm_jenkins_input(osc: Jenkins, H: int, N: int) -> dict:
     one = np.array([[1.0]])
     return {
         "system": {"type": "Base", "nh": list(range(1, H + 1, 2)), "nti": N},
-        "substructures": {"sub1": {"type": "substructure", "ndofs": 1, "matrix": {"M": osc.m * one, "K": osc.k * one}}},
+        "substructures": {
+            "sub1": {"type": "substructure", "ndofs": 1, "matrix": {"M": osc.m * one, "K": osc.k * one}}
+        },
         "connectors": {
-            "jenkins": {"type": "Jenkins", "connect": {"sub1": [0]}, "dirs": [0], "mu": osc.Fs, "N0": 1.0, "k": osc.kt},
+            "jenkins": {
+                "type": "Jenkins",
+                "connect": {"sub1": [0]},
+                "dirs": [0],
+                "mu": osc.Fs,
+                "N0": 1.0,
+                "k": osc.kt,
+            },
             "damper": {"type": "LinearDamper", "connect": {"sub1": [0]}, "dirs": [0], "k": osc.c},
             "force": {"type": "CosinusForcing", "connect": {"sub1": [0]}, "dirs": [0], "amp": osc.F},
         },
@@ -247,13 +278,86 @@ def pyharm_forced(case: ForcedCase, H: int, guesses: list | None):
             sol = frf.SolList[0]
             res = float(np.max(np.abs(maestro.system.Residual(sol.x))))
             if sol.status_solver != 1 or res > 1e-9:
-                raise RuntimeError(f"pyHarm H={H}, Omega={W}: no convergence (status {sol.status_solver}, residual {res:.1e})")
+                raise RuntimeError(
+                    f"pyHarm H={H}, Omega={W}: no convergence (status {sol.status_solver}, residual {res:.1e})"
+                )
             X = np.asarray(sol.x[:-1])
             amps.append(hb.max_of(X))
             new.append(X)
     finally:
         logging.disable(logging.NOTSET)
     return np.array(amps), secs, new
+
+
+def pyharm_backbone(H: int, amplitudes, guesses: list | None):
+    """EPMC with pyHarm's harmonic balance: its residual and Jacobian of the Jenkins oscillator with a
+    ``LinearDamper`` of coefficient ``-xi m`` (no forcing), closed here by the amplitude and phase
+    conditions of :meth:`HarmonicBalance.backbone_point` (pyHarm has no EPMC), Newton on (X, omega,
+    xi) as there."""
+    from pyHarm.Maestro import Maestro
+
+    osc = BACKBONE
+    N = samples(H)
+    one = np.array([[1.0]])
+    inp = {
+        "system": {"type": "Base", "nh": list(range(1, H + 1, 2)), "nti": N},
+        "substructures": {
+            "sub1": {"type": "substructure", "ndofs": 1, "matrix": {"M": osc.m * one, "K": osc.k * one}}
+        },
+        "connectors": {
+            "jenkins": {
+                "type": "Jenkins",
+                "connect": {"sub1": [0]},
+                "dirs": [0],
+                "mu": osc.Fs,
+                "N0": 1.0,
+                "k": osc.kt,
+            },
+            "xi": {"type": "LinearDamper", "connect": {"sub1": [0]}, "dirs": [0], "k": 0.0},
+        },
+    }
+    logging.disable(logging.WARNING)
+    try:
+        system = Maestro(inp).system
+    finally:
+        logging.disable(logging.NOTSET)
+    damper = next(e for e in system.LE if type(e).__name__ == "LinearDamper")
+    hb = HarmonicBalance(osc, H, N)  # its matrices only (the derivative operator), for the closure
+    nX = 2 * len(hb.h)
+    amp_row = np.zeros(nX)
+    amp_row[0::2] = 1.0
+    phase_row = np.zeros(nX)
+    phase_row[1::2] = hb.h
+    out, new = [], []
+    t = time.perf_counter()
+    for i, a in enumerate(amplitudes):
+        if guesses is None:
+            g = single_harmonic_backbone([a], osc)
+            z = np.zeros(nX + 2)
+            z[0], z[nX], z[nX + 1] = a, g["omega"][0], g["xi"][0]
+        else:
+            z = np.concatenate([hb.pad(guesses[i][0]), guesses[i][1:]])
+        for _ in range(50):
+            X, omega, xi = z[:nX], z[nX], z[nX + 1]
+            damper.k = -xi * osc.m
+            q = np.concatenate([X, [omega]])
+            R = system.Residual(q)
+            Jx, Jom = system.Jacobian(q)
+            r = np.concatenate([R, [amp_row @ X - a, phase_row @ X]])
+            J = np.zeros((nX + 2, nX + 2))
+            J[:nX, :nX], J[:nX, nX] = Jx, np.ravel(Jom)
+            J[:nX, nX + 1] = -osc.m * omega * (hb.D1 @ X)
+            J[nX, :nX], J[nX + 1, :nX] = amp_row, phase_row
+            dz = np.linalg.solve(J, -r)
+            z = z + dz
+            if np.max(np.abs(dz)) <= 1e-12 * max(1.0, np.max(np.abs(z))):
+                break
+        else:
+            raise RuntimeError(f"pyHarm EPMC H={H}, a={a}: Newton did not converge")
+        out.append((z[nX], z[nX + 1] / (2 * z[nX])))
+        new.append((z[:nX], z[nX], z[nX + 1]))
+    secs = time.perf_counter() - t
+    return np.array(out), secs, new
 
 
 # --------------------------------------------------------------------------------------------------
@@ -297,12 +401,20 @@ def main(argv=None) -> dict:
         ex = exact_backbone(AMPLITUDES, BACKBONE)
         t_exact = time.perf_counter() - t
         sh = single_harmonic_backbone(AMPLITUDES, BACKBONE)
-        print(f"EPMC backbone of the Jenkins oscillator at {len(AMPLITUDES)} amplitudes from "
-              f"{AMPLITUDES[0]:.3g} to {AMPLITUDES[-1]:.3g} m: exact (half-period shooting) in {t_exact * 1e3:.1f} ms")
-        print(f"  single-harmonic (approximate): omega error {rel(sh['omega'], ex['omega']):.2e}, "
-              f"D error {rel(sh['damping_ratio'], ex['damping_ratio']):.2e}")
-        bb = {"amplitudes": AMPLITUDES.tolist(), "exact": {k: ex[k].tolist() for k in ("omega", "xi", "damping_ratio")},
-              "exact_seconds": t_exact, "rows": []}
+        print(
+            f"EPMC backbone of the Jenkins oscillator at {len(AMPLITUDES)} amplitudes from "
+            f"{AMPLITUDES[0]:.3g} to {AMPLITUDES[-1]:.3g} m: exact (half-period shooting) in {t_exact * 1e3:.1f} ms"
+        )
+        print(
+            f"  single-harmonic (approximate): omega error {rel(sh['omega'], ex['omega']):.2e}, "
+            f"D error {rel(sh['damping_ratio'], ex['damping_ratio']):.2e}"
+        )
+        bb = {
+            "amplitudes": AMPLITUDES.tolist(),
+            "exact": {k: ex[k].tolist() for k in ("omega", "xi", "damping_ratio")},
+            "exact_seconds": t_exact,
+            "rows": [],
+        }
         lib = library_backbone(AMPLITUDES)
         if lib is None:
             print("  hybrid.backbone: not in this library yet (issue 31, item 1): not compared")
@@ -310,21 +422,51 @@ def main(argv=None) -> dict:
             d_om, d_D = rel(lib["omega"], ex["omega"]), rel(lib["damping_ratio"], ex["damping_ratio"])
             print(f"  hybrid.backbone against it: omega {d_om:.2e}, D {d_D:.2e} ({lib['seconds']:.3f} s)")
             bb["library"] = {"omega_error": d_om, "damping_error": d_D, "seconds": lib["seconds"]}
-        guesses = None
+        guesses = g_ph = None
+        ph_ok = why_no_pyharm is None
+        if ph_ok:  # compile pyHarm's numba kernels (cached on disk) outside the timings
+            pyharm_backbone(1, AMPLITUDES[:1], None)
         for H in Hs:
             vals, secs, guesses = aft_backbone(H, AMPLITUDES, guesses)
-            bb["rows"].append({"H": H, "N": samples(H), "aft_omega": rel(vals[:, 0], ex["omega"]),
-                               "aft_damping": rel(vals[:, 1], ex["damping_ratio"]), "aft_s": secs})
+            row = {
+                "H": H,
+                "N": samples(H),
+                "aft_omega": rel(vals[:, 0], ex["omega"]),
+                "aft_damping": rel(vals[:, 1], ex["damping_ratio"]),
+                "aft_s": secs,
+            }
+            if ph_ok:
+                try:
+                    v_ph, s_ph, g_ph = pyharm_backbone(H, AMPLITUDES, g_ph)
+                    row.update(
+                        pyharm_omega=rel(v_ph[:, 0], ex["omega"]),
+                        pyharm_damping=rel(v_ph[:, 1], ex["damping_ratio"]),
+                        pyharm_s=s_ph,
+                        aft_vs_pyharm=max(rel(v_ph[:, 0], vals[:, 0]), rel(v_ph[:, 1], vals[:, 1])),
+                    )
+                except RuntimeError as exc:
+                    print(f"  pyHarm stopped at H = {H}: {exc}")
+                    ph_ok = False
+            bb["rows"].append(row)
         result["backbone"] = bb
 
         # ---- forced responses
         result["forced"] = {}
         for name in args.forced:
             case = FORCED[name]
-            amps_ex, t_ref = case.reference(case.omegas)
-            print(f"\n{name}: {case.title}; exact amplitudes at Omega = {case.omegas}: "
-                  f"{np.round(amps_ex, 6).tolist()} in {t_ref:.3f} s (this library, exact integrator)")
-            fr = {"omegas": case.omegas, "exact": amps_ex.tolist(), "exact_seconds": t_ref, "rows": []}
+            amps_ex, t_ref, t_warm = case.reference(case.omegas)
+            print(
+                f"\n{name}: {case.title}; exact amplitudes at Omega = {case.omegas}: "
+                f"{np.round(amps_ex, 9).tolist()} in {t_ref:.3f} s cold, {t_warm:.3f} s warm-started "
+                "(this library, exact integrator)"
+            )
+            fr = {
+                "omegas": case.omegas,
+                "exact": amps_ex.tolist(),
+                "exact_seconds_cold": t_ref,
+                "exact_seconds": t_warm,
+                "rows": [],
+            }
             g_aft = g_ph = None
             ph_ok = why_no_pyharm is None and case.pyharm is not None
             if ph_ok:  # compile pyHarm's numba kernels (cached on disk) outside the timings
@@ -335,8 +477,9 @@ def main(argv=None) -> dict:
                 if ph_ok:
                     try:
                         a_ph, s_ph, g_ph = pyharm_forced(case, H, g_ph)
-                        row.update(pyharm_amplitude=rel(a_ph, amps_ex), pyharm_s=s_ph,
-                                   aft_vs_pyharm=rel(a_ph, a_aft))
+                        row.update(
+                            pyharm_amplitude=rel(a_ph, amps_ex), pyharm_s=s_ph, aft_vs_pyharm=rel(a_ph, a_aft)
+                        )
                     except RuntimeError as exc:
                         print(f"  pyHarm stopped at H = {H}: {exc}")
                         ph_ok = False
@@ -351,28 +494,39 @@ def main(argv=None) -> dict:
 def summarize(result: dict) -> None:
     bb = result["backbone"]
     print("\nBackbone (EPMC): largest relative error over the amplitudes; time of the 10 points")
-    print(f"{'H':>3} {'N':>5} | {'omega':>9} {'D':>9} {'time s':>8}")
+    ph = any("pyharm_omega" in r for r in bb["rows"])
+    head = f"{'H':>5} {'N':>6} | {'aft omega':>9} {'aft D':>9} {'time s':>8}"
+    print(head + (f" | {'pyH omega':>9} {'pyH D':>9} {'time s':>8} {'pyH-aft':>8}" if ph else ""))
     for r in bb["rows"]:
-        print(f"{r['H']:>3} {r['N']:>5} | {r['aft_omega']:9.2e} {r['aft_damping']:9.2e} {r['aft_s']:8.3f}")
+        line = f"{r['H']:>5} {r['N']:>6} | {r['aft_omega']:9.2e} {r['aft_damping']:9.2e} {r['aft_s']:8.3f}"
+        if "pyharm_omega" in r:
+            line += f" | {r['pyharm_omega']:9.2e} {r['pyharm_damping']:9.2e} {r['pyharm_s']:8.3f} {r['aft_vs_pyharm']:8.1e}"
+        print(line)
     summary = {}
-    for key in ("aft_omega", "aft_damping"):
+    for key in ("aft_omega", "aft_damping", "pyharm_omega", "pyharm_damping"):
         s = first_below(bb["rows"], key)
+        if not s:
+            continue
         r = next(r for r in bb["rows"] if r["H"] == s["H"])
-        s["seconds"] = r["aft_s"]
-        s["ratio_to_exact"] = r["aft_s"] / bb["exact_seconds"]
+        s["seconds"] = r[key.split("_")[0] + "_s"]
+        s["ratio_to_exact"] = s["seconds"] / bb["exact_seconds"]
         summary[key] = s
     bb["summary"] = summary
     for key, s in summary.items():
         word = "reaches 1e-6 at" if s["reached"] else "best at"
-        print(f"  {key}: {word} H = {s['H']} (error {s['error']:.1e}), {s['seconds']:.3f} s = "
-              f"{s['ratio_to_exact']:.3g} x the exact shooting ({bb['exact_seconds'] * 1e3:.1f} ms)")
+        print(
+            f"  {key}: {word} H = {s['H']} (error {s['error']:.1e}), {s['seconds']:.3f} s = "
+            f"{s['ratio_to_exact']:.3g} x the exact shooting ({bb['exact_seconds'] * 1e3:.1f} ms)"
+        )
     for name, fr in result["forced"].items():
         ph = any("pyharm_amplitude" in r for r in fr["rows"])
-        print(f"\nForced response {name}: largest relative error of max x over the {len(fr['omegas'])} frequencies")
-        head = f"{'H':>3} {'N':>5} | {'aft':>9} {'time s':>8}"
+        print(
+            f"\nForced response {name}: largest relative error of max x over the {len(fr['omegas'])} frequencies"
+        )
+        head = f"{'H':>5} {'N':>6} | {'aft':>9} {'time s':>8}"
         print(head + (f" | {'pyHarm':>9} {'time s':>8} {'pyH-aft':>9}" if ph else ""))
         for r in fr["rows"]:
-            line = f"{r['H']:>3} {r['N']:>5} | {r['aft_amplitude']:9.2e} {r['aft_s']:8.3f}"
+            line = f"{r['H']:>5} {r['N']:>6} | {r['aft_amplitude']:9.2e} {r['aft_s']:8.3f}"
             if "pyharm_amplitude" in r:
                 line += f" | {r['pyharm_amplitude']:9.2e} {r['pyharm_s']:8.3f} {r['aft_vs_pyharm']:9.1e}"
             print(line)
@@ -386,24 +540,26 @@ def summarize(result: dict) -> None:
             s["ratio_to_exact"] = r[tkey] / fr["exact_seconds"]
             fr["summary"][key] = s
             word = "reaches 1e-6 at" if s["reached"] else "best at"
-            print(f"  {key}: {word} H = {s['H']} (error {s['error']:.1e}), {s['seconds']:.3f} s = "
-                  f"{s['ratio_to_exact']:.3g} x the exact orbits ({fr['exact_seconds']:.3f} s)")
+            print(
+                f"  {key}: {word} H = {s['H']} (error {s['error']:.1e}), {s['seconds']:.3f} s = "
+                f"{s['ratio_to_exact']:.3g} x the exact orbits ({fr['exact_seconds']:.3f} s, warm-started)"
+            )
 
 
 def write(result: dict, plot: bool) -> None:
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
+    columns = [("backbone", m, q) for m in ("aft", "pyharm") for q in ("omega", "damping")]
+    columns += [(name, m, "amplitude") for name in result["forced"] for m in ("aft", "pyharm")]
     with OUT.with_suffix(".csv").open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["problem", "method", "H", "N", "quantity", "relative_error", "seconds"])
-        for r in result["backbone"]["rows"]:
-            w.writerow(["backbone", "aft", r["H"], r["N"], "omega", f"{r['aft_omega']:.6e}", f"{r['aft_s']:.6f}"])
-            w.writerow(["backbone", "aft", r["H"], r["N"], "damping_ratio", f"{r['aft_damping']:.6e}", f"{r['aft_s']:.6f}"])
-        for name, fr in result["forced"].items():
-            for r in fr["rows"]:
-                w.writerow([name, "aft", r["H"], r["N"], "amplitude", f"{r['aft_amplitude']:.6e}", f"{r['aft_s']:.6f}"])
-                if "pyharm_amplitude" in r:
-                    w.writerow([name, "pyharm", r["H"], r["N"], "amplitude", f"{r['pyharm_amplitude']:.6e}", f"{r['pyharm_s']:.6f}"])
+        for problem, method, quantity in columns:
+            rows = result["backbone"]["rows"] if problem == "backbone" else result["forced"][problem]["rows"]
+            for r in rows:
+                if f"{method}_{quantity}" in r:
+                    err, secs = r[f"{method}_{quantity}"], r[f"{method}_s"]
+                    w.writerow([problem, method, r["H"], r["N"], quantity, f"{err:.6e}", f"{secs:.6f}"])
     print(f"\nwrote {OUT.with_suffix('.json')} and .csv")
     if plot:
         figure(result)
@@ -421,6 +577,20 @@ def figure(result: dict) -> None:
     ax1.loglog(H, [r["aft_omega"] for r in bb["rows"]], "o-", label="backbone omega(a), AFT")
     ax1.loglog(H, [r["aft_damping"] for r in bb["rows"]], "s-", label="backbone D(a), AFT")
     ax2.semilogy(H, [r["aft_s"] for r in bb["rows"]], "s-", label="backbone, AFT (10 points)")
+    ph = [r for r in bb["rows"] if "pyharm_omega" in r]
+    if ph:
+        ax1.loglog(
+            [r["H"] for r in ph],
+            [r["pyharm_damping"] for r in ph],
+            "+--",
+            label="backbone D(a), pyHarm (+ EPMC closure)",
+        )
+        ax2.semilogy(
+            [r["H"] for r in ph],
+            [r["pyharm_s"] for r in ph],
+            "+--",
+            label="backbone, pyHarm (+ EPMC closure)",
+        )
     ax2.axhline(bb["exact_seconds"], color="k", ls=":", label="backbone, exact shooting")
     for name, fr in result["forced"].items():
         rows = fr["rows"]
@@ -429,9 +599,17 @@ def figure(result: dict) -> None:
         ax2.semilogy(H, [r["aft_s"] for r in rows], "^-", label=f"{name}, AFT ({len(fr['omegas'])} points)")
         ph = [r for r in rows if "pyharm_amplitude" in r]
         if ph:
-            ax1.loglog([r["H"] for r in ph], [r["pyharm_amplitude"] for r in ph], "x--", label=f"{name} max x, pyHarm")
+            ax1.loglog(
+                [r["H"] for r in ph],
+                [r["pyharm_amplitude"] for r in ph],
+                "x--",
+                label=f"{name} max x, pyHarm",
+            )
             ax2.semilogy([r["H"] for r in ph], [r["pyharm_s"] for r in ph], "x--", label=f"{name}, pyHarm")
-        ax2.axhline(fr["exact_seconds"], color="C3", ls=":", label=f"{name}, this library (exact)")
+        ax2.axhline(fr["exact_seconds"], color="C3", ls=":", label=f"{name}, this library (exact, warm)")
+        ax2.axhline(
+            fr["exact_seconds_cold"], color="C3", ls="--", lw=0.8, label=f"{name}, this library (exact, cold)"
+        )
     ax1.axhline(TARGET, color="gray", lw=0.8)
     ax1.set_xlabel("highest harmonic H (odd harmonics 1..H)")
     ax1.set_ylabel("largest relative error against the exact result")
