@@ -389,6 +389,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--hmax", type=int, default=63, help="highest H (odd); H = 1, 3, ..., hmax")
     ap.add_argument("--forced", nargs="*", default=list(FORCED), help=f"forced cases by name: {list(FORCED)}")
     ap.add_argument("--no-plot", action="store_true")
+    ap.add_argument("--out", default=str(OUT), help="path prefix of the .json, .csv and .png written")
     args = ap.parse_args(argv)
     unknown = [n for n in args.forced if n not in FORCED]
     if unknown:
@@ -497,7 +498,7 @@ def main(argv=None) -> dict:
             result["forced"][name] = fr
     result["load_1min_end"] = load()
     summarize(result)
-    write(result, plot=not args.no_plot)
+    write(result, Path(args.out), plot=not args.no_plot)
     return result
 
 
@@ -556,12 +557,12 @@ def summarize(result: dict) -> None:
             )
 
 
-def write(result: dict, plot: bool) -> None:
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
+def write(result: dict, out: Path, plot: bool) -> None:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n")
     columns = [("backbone", m, q) for m in ("aft", "pyharm") for q in ("omega", "damping")]
     columns += [(name, m, "amplitude") for name in result["forced"] for m in ("aft", "pyharm")]
-    with OUT.with_suffix(".csv").open("w", newline="") as fh:
+    with out.with_suffix(".csv").open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["problem", "method", "H", "N", "quantity", "relative_error", "seconds"])
         for problem, method, quantity in columns:
@@ -570,12 +571,12 @@ def write(result: dict, plot: bool) -> None:
                 if f"{method}_{quantity}" in r:
                     err, secs = r[f"{method}_{quantity}"], r[f"{method}_s"]
                     w.writerow([problem, method, r["H"], r["N"], quantity, f"{err:.6e}", f"{secs:.6f}"])
-    print(f"\nwrote {OUT.with_suffix('.json')} and .csv")
+    print(f"\nwrote {out.with_suffix('.json')} and .csv")
     if plot:
-        figure(result)
+        figure(result, out)
 
 
-def figure(result: dict) -> None:
+def figure(result: dict, out: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -630,8 +631,8 @@ def figure(result: dict) -> None:
     ax2.set_title("Time of the solves (one BLAS thread)")
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(OUT.with_suffix(".png"), dpi=110)
-    print(f"wrote {OUT.with_suffix('.png')}")
+    fig.savefig(out.with_suffix(".png"), dpi=110)
+    print(f"wrote {out.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

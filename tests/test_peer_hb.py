@@ -9,7 +9,8 @@
   slider's dissipation, a relation the shooting does not use), integrated by quadrature;
 * the AFT Jenkins force of ``x = a cos(theta)`` against the describing function (Caughey 1960),
   and the AFT backbone at H = 1 against the closed-form single-harmonic backbone, to 1e-8;
-* the AFT backbone at H = 15 against the exact shooting, to the truncation error of H = 15.
+* the AFT backbone at H = 15 against the exact shooting, to the truncation error of H = 15;
+* the benchmark runs without pyHarm, saying so (slow).
 """
 
 from __future__ import annotations
@@ -115,3 +116,23 @@ def test_aft_backbone_converges_to_the_exact_shooting():
         p = aft.backbone_point(a)
         assert p["omega"] == pytest.approx(ex["omega"][i], rel=2e-6)
         assert p["damping_ratio"] == pytest.approx(ex["damping_ratio"][i], rel=4e-5)
+
+
+@pytest.mark.slow
+def test_benchmark_runs_and_skips_pyharm_cleanly_where_it_is_absent(tmp_path, monkeypatch, capsys):
+    # issue 31: without pyHarm the benchmark says so and still runs its own harmonic balance
+    spec = importlib.util.spec_from_file_location("peer_hb", ROOT / "benchmarks" / "peer_hb.py")
+    peer = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "peer_hb", peer)  # its dataclasses look their module up
+    monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
+    spec.loader.exec_module(peer)
+    monkeypatch.setattr(peer, "pyharm_available", lambda: "pyHarm is not installed (test)")
+    result = peer.main(["--hmax", "3", "--no-plot", "--out", str(tmp_path / "hb")])
+    assert "pyHarm skipped: pyHarm is not installed (test)" in capsys.readouterr().out
+    rows = result["backbone"]["rows"] + result["forced"]["jenkins_forced"]["rows"]
+    assert [r["H"] for r in result["backbone"]["rows"]] == [1, 3]
+    assert not any(k.startswith("pyharm") for r in rows for k in r)
+    # H = 1 and 3 are far from the exact results (truncation), and closer at 3 than at 1
+    bb = result["backbone"]["rows"]
+    assert 1e-4 < bb[1]["aft_omega"] < bb[0]["aft_omega"] < 1e-2
+    assert (tmp_path / "hb.json").exists() and (tmp_path / "hb.csv").exists()
