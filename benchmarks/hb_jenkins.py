@@ -258,7 +258,10 @@ class HarmonicBalance:
             z = z + dz
             if np.max(np.abs(dz)) <= tol * max(1.0, np.max(np.abs(z))):
                 r, _ = fun(z)
-                return z, it + 1, float(np.max(np.abs(r)))
+                res = float(np.max(np.abs(r)))
+                if res > 1e-9 * max(1.0, np.max(np.abs(z))):
+                    raise RuntimeError(f"HarmonicBalance(H={self.H}): Newton stalled at residual {res:.1e}")
+                return z, it + 1, res
         raise RuntimeError(f"HarmonicBalance(H={self.H}): Newton did not converge in {max_iter} iterations")
 
     def pad(self, X: np.ndarray) -> np.ndarray:
@@ -296,12 +299,14 @@ class HarmonicBalance:
 
         z0 = np.concatenate([guess[0], [guess[1], guess[2]]])
         z, its, res = self._newton(fun, z0)
-        self.last_iterations = its
         X, omega, xi = z[:nX], float(z[nX]), float(z[nX + 1])
         return {"X": X, "omega": omega, "xi": xi, "damping_ratio": xi / (2 * omega), "iterations": its}
 
-    def forced_point(self, Omega: float, guess: np.ndarray | None = None) -> dict:
-        """Forced response to ``F cos(Omega t)``: coefficients and the amplitude ``max x``."""
+    def forced_point(self, Omega: float, guess: np.ndarray | None = None, amplitude: bool = True) -> dict:
+        """Forced response to ``F cos(Omega t)``: coefficients and (``amplitude``) ``max x``.
+
+        The default guess is the linear response with half the Jenkins stiffness.
+        """
         o = self.osc
         nX = 2 * len(self.h)
         Fext = np.zeros(nX)
@@ -316,7 +321,7 @@ class HarmonicBalance:
             guess = np.zeros(nX)
             guess[0:2] = np.linalg.solve(L[:2, :2] + o.kt * np.eye(2) * 0.5, Fext[:2])
         X, its, res = self._newton(fun, guess)
-        return {"X": X, "amplitude": self.max_of(X), "iterations": its}
+        return {"X": X, "amplitude": self.max_of(X) if amplitude else None, "iterations": its}
 
     def max_of(self, X: np.ndarray) -> float:
         """Maximum over the period of the trigonometric polynomial ``X`` (sampled, then Newton)."""
