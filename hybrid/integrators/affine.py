@@ -33,6 +33,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..core.cache import LRUCache
 from ..core.errors import NotAffineError
@@ -281,53 +282,89 @@ def _shown(text: str) -> str:
 HARMONIC_TOL = 1e-12
 
 
-def affine_coefficients(e: Expr, symbols: list[str], params: frozenset, where: str) -> list[Expr]:
-    """Coefficients ``[d e/d u_j ..., e(u = 0)]`` of an expression affine in ``symbols``."""
-    extra = e.free - set(symbols) - params
+def affine_terms(
+    e: Expr, index: Mapping[str, int], params: frozenset, where: str, symbols: list[str] | None = None
+) -> dict[int, Expr]:
+    """The coefficients of an expression affine in the symbols of ``index`` that are not the
+    constant zero, by column: ``d e/d u_j`` at ``index[u_j]``, ``e(u = 0)`` at ``len(index)``.
+
+    Only the symbols ``e`` depends on are visited, so a row of a part of a large system costs the
+    size of the row, not of the system (issue 32: set-up of 1000 contacts).
+    """
+    extra = e.free - index.keys() - params
     if extra:
         name = sorted(extra)[0]
         raise NotAffineError(f"{where} depends on `{name}` otherwise than affinely through sin/cos of t")
-    state = set(symbols)
-    out = []
-    for s in symbols:
-        if s not in e.free:
-            out.append(ZERO)
-            continue
+    out: dict[int, Expr] = {}
+    present = sorted(e.free & index.keys(), key=index.__getitem__)
+    zeros = {s: ZERO for s in present}
+    for s in present:
         g = diff(e, s)
-        if g.free & state:
+        if g.free & index.keys():
             shown = {_S: "sin(w t)", _C: "cos(w t)"}.get(s, s)
             raise NotAffineError(
                 _shown(f"{where} is not affine in `{shown}`: its derivative is `{to_string(g, 120)}`")
             )
-        out.append(g)
-    out.append(substitute(e, {s: ZERO for s in symbols}))
+        if g is not ZERO:
+            out[index[s]] = g
+    rest = substitute(e, zeros)
+    if rest is not ZERO:
+        out[len(index)] = rest
     return out
 
 
-def _quadratic(e: Expr, symbols: list[str], params: frozenset, where: str) -> list[list[Expr]]:
-    """``Q`` (expressions) with ``e = u^T Q u``, ``u = [symbols, 1]``, for a quadratic ``e``."""
-    n = len(symbols)
-    Q = [[ZERO] * (n + 1) for _ in range(n + 1)]
-    state = set(symbols)
-    zeros = {s: ZERO for s in symbols}
+def affine_coefficients(e: Expr, symbols: list[str], params: frozenset, where: str) -> list[Expr]:
+    """Coefficients ``[d e/d u_j ..., e(u = 0)]`` of an expression affine in ``symbols``."""
+    terms = affine_terms(e, {s: j for j, s in enumerate(symbols)}, params, where)
+    return [terms.get(j, ZERO) for j in range(len(symbols) + 1)]
+
+
+def _quadratic(
+    e: Expr, index: Mapping[str, int], params: frozenset, where: str
+) -> dict[tuple[int, int], Expr]:
+    """The entries of ``Q`` (expressions) that are not the constant zero, by ``(row, column)``, with
+    ``e = u^T Q u``, ``u = [symbols, 1]`` (``index``: the column of each symbol), for a quadratic
+    ``e``; only the symbols ``e`` depends on are visited (a sum of N energies costs N)."""
+    n = len(index)
+    Q: dict[tuple[int, int], Expr] = {}
+    state = index.keys()
     half = e_num(0.5)
-    for j, s in enumerate(symbols):
-        if s not in e.free:
-            continue
+    present = sorted(e.free & state, key=index.__getitem__)
+    zeros = {s: ZERO for s in present}
+
+    def put(j: int, k: int, value: Expr) -> None:
+        if value is not ZERO and not (value.op == "num" and value.args[0] == 0.0):
+            Q[j, k] = Q[k, j] = value
+
+    for s in present:
+        j = index[s]
         g = diff(e, s)
-        Q[j][n] = Q[n][j] = e_mul(half, substitute(g, zeros))
-        for k in range(j, n):
-            if symbols[k] not in g.free:
+        put(j, n, e_mul(half, substitute(g, zeros)))
+        for s2 in sorted(g.free & state, key=index.__getitem__):
+            k = index[s2]
+            if k < j:
                 continue
-            h = diff(g, symbols[k])
+            h = diff(g, s2)
             if h.free & state:
                 raise NotAffineError(f"{where} is not quadratic in the state: `{to_string(h, 120)}`")
-            Q[j][k] = Q[k][j] = e_mul(half, h)
+            put(j, k, e_mul(half, h))
     extra = e.free - state - params
     if extra:
         raise NotAffineError(f"{where} depends on `{sorted(extra)[0]}` otherwise than through sin/cos of t")
-    Q[n][n] = substitute(e, zeros)
+    put(n, n, substitute(e, zeros))
     return Q
+
+
+def _index_matrix(entries: list[dict], width: int) -> sp.csr_array:
+    """Rows of positions (``{column: position}`` each) as a sparse matrix of shape
+    ``(len(entries), width)``: a position left out is 0, the analysis' constant zero."""
+    rows = [i for i, r in enumerate(entries) for _ in r]
+    cols = [c for r in entries for c in r]
+    data = [k for r in entries for k in r.values()]
+    return sp.csr_array(
+        (np.array(data, dtype=np.int64), (np.array(rows, dtype=np.int64), np.array(cols, dtype=np.int64))),
+        shape=(len(entries), width),
+    )
 
 
 @dataclass
@@ -341,10 +378,12 @@ class ModeForm:
     q: np.ndarray
     rates: list[int]  # positions of this mode's forcing rates among the analysis' rates
     groups: list[int]  # the groups of those rates (distinct up to sign), in the order of their S, C in u
-    F: np.ndarray  # (nd, nu + 1) rows of the derivatives over [u, 1]
-    G: np.ndarray  # (na, nu + 1) rows of the algebraic equations
-    Wu: np.ndarray  # (ng, nu + 1) rows of the guards
-    Qu: np.ndarray  # (nq, nu + 1, nu + 1) quadratic forms of the quadrature rates
+    # Positions in the analysis' values as sparse integer matrices (an entry left out is position 0,
+    # the constant zero): a part of a large system stores its own entries only (issue 32).
+    F: sp.csr_array  # (nd, nu + 1) rows of the derivatives over [u, 1]
+    G: sp.csr_array  # (na, nu + 1) rows of the algebraic equations
+    Wu: sp.csr_array  # (ng, nu + 1) rows of the guards
+    Qu: list  # nq sparse (nu + 1, nu + 1): quadratic forms of the quadrature rates
 
 
 class AffineAnalysis:
@@ -383,6 +422,7 @@ class AffineAnalysis:
         self._groups: list[Expr] = []  # distinct forcing rates (up to sign): one S, C pair each in u
         self._rate_group: list[int] = []
         self.forms: list[ModeForm] = []
+        self._index: tuple[list[str], dict[str, int]] = ([], {})  # the last symbols and their columns
         modes = list(modes)
         if forcing:
             # every form has the same u: the S, C pairs of every group of rates of any mode
@@ -435,31 +475,33 @@ class AffineAnalysis:
             groups = list(range(len(self._groups))) if self._forcing else []
         symbols = names + [sym_ for g in groups for sym_ in _harmonic_symbols(g)]
 
-        def row(e: Expr, what: str) -> list[int]:
-            return [self._pos(c) for c in affine_coefficients(sub(e), symbols, pset, f"{where}: {what}")]
-
+        if self._index[0] != symbols:  # the parts of a composed system share their symbols
+            self._index = (symbols, {s: j for j, s in enumerate(symbols)})
+        index = self._index[1]
         nu = len(symbols)
-        F = np.array([row(f_expr[i], f"derivative of `{names[i]}`") for i in d], dtype=int).reshape(
-            d.size, nu + 1
-        )
-        G = np.array([row(g_expr[i], f"algebraic equation of `{names[i]}`") for i in a], dtype=int).reshape(
-            a.size, nu + 1
-        )
-        Qu = np.array(
-            [
-                [
-                    [self._pos(c) for c in r]
-                    for r in _quadratic(
-                        sub(f_expr[i]), symbols, pset, f"{where}: derivative of quadrature `{names[i]}`"
-                    )
-                ]
-                for i in q
-            ],
-            dtype=int,
-        ).reshape(q.size, nu + 1, nu + 1)
-        W = np.array([row(e, f"guard `{gname}`") for gname, e in guards], dtype=int).reshape(
-            len(guards), nu + 1
-        )
+
+        def row(e: Expr, what: str) -> dict[int, int]:
+            terms = affine_terms(sub(e), index, pset, f"{where}: {what}")
+            return {c: k for c, x in terms.items() if (k := self._pos(x))}
+
+        F = _index_matrix([row(f_expr[i], f"derivative of `{names[i]}`") for i in d], nu + 1)
+        G = _index_matrix([row(g_expr[i], f"algebraic equation of `{names[i]}`") for i in a], nu + 1)
+        Qu = []
+        for i in q:
+            Q = _quadratic(sub(f_expr[i]), index, pset, f"{where}: derivative of quadrature `{names[i]}`")
+            Qu.append(
+                sp.csr_array(
+                    (
+                        np.array([self._pos(x) for x in Q.values()], dtype=np.int64),
+                        (
+                            np.array([j for j, _ in Q], dtype=np.int64),
+                            np.array([k for _, k in Q], dtype=np.int64),
+                        ),
+                    ),
+                    shape=(nu + 1, nu + 1),
+                )
+            )
+        W = _index_matrix([row(e, f"guard `{gname}`") for gname, e in guards], nu + 1)
         return ModeForm(
             name, tuple(names), d, a, q, list(range(first, len(self._rates))), groups, F, G, W, Qu
         )
@@ -555,7 +597,7 @@ def assemble_form(
     n = len(form.names)
     nf = 2 * len(harmonics) if omega is not None else 0
     nu = n + 2 * len(form.groups)
-    F, G = vals[form.F], vals[form.G]
+    F, G = vals[form.F.toarray()], vals[form.G.toarray()]
     # u over z = [y_d, S_1, C_1, ..., 1]: differential rows are z, slave rows from the algebraic equations.
     nz = d.size + nf + 1
     Pu = np.zeros((nu + 1, nz))
@@ -578,8 +620,8 @@ def assemble_form(
             k = d.size + 2 * j
             M[k, k + 1] = m * omega  # S_m' = m w C_m (m = 1: exactly w)
             M[k + 1, k] = -m * omega  # C_m' = -m w S_m
-    Q = np.array([Pu.T @ vals[Qj] @ Pu for Qj in form.Qu]).reshape(q.size, nz, nz)
-    W = vals[form.Wu] @ Pu
+    Q = np.array([Pu.T @ vals[Qj.toarray()] @ Pu for Qj in form.Qu]).reshape(q.size, nz, nz)
+    W = vals[form.Wu.toarray()] @ Pu
     return omega, d, a, q, M, Pu[:n], Q, W, tuple(harmonics)
 
 
