@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from ..core.budget import check_deadline
 from ..core.cache import LRUCache
 from ..core.errors import NotAffineError
 from ..model.codegen import compile_many
@@ -429,7 +430,9 @@ class AffineAnalysis:
             for name, _names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
                 exprs = [f_expr[i] for i in diff_idx] + [g_expr[i] for i in alg_idx] + [e for _, e in guards]
                 _phase_nodes(exprs, f"mode `{name}`", pset, 0, self._groups)
-        for name, names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
+        for k, (name, names, diff_idx, alg_idx, f_expr, g_expr, guards) in enumerate(modes):
+            if k and not k & 63:  # a large model's set-up honours the deadline in force (--max-time)
+                check_deadline(f"analysing the modes' affine forms ({k} of {len(modes)} parts done)")
             self.forms.append(
                 self._form(name, list(names), diff_idx, alg_idx, f_expr, g_expr, guards, quadratures, pset)
             )

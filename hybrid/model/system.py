@@ -33,6 +33,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from ..core.budget import check_deadline
 from ..core.cache import DerivedCache, LRUCache
 from ..core.errors import ExpressionError, InputError, InputTypeError, ModelError
 from .codegen import compile_scalar
@@ -689,7 +690,9 @@ class HybridSystem:
         shared_expand = _Expander(parsed_defs)
         vset, pset = set(vnames), set(pnames)
         vindex = {n: i for i, n in enumerate(vnames)}
-        for c in self.components:
+        for k, c in enumerate(self.components):
+            if k and not k & 255:  # a large model's set-up honours the deadline in force (--max-time)
+                check_deadline(f"reading the model's components ({k} of {len(self.components)} read)")
             where = f"{pre}: component `{c.name}`"
             modes: dict[str, dict] = {}
             for m in c.modes:
