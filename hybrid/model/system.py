@@ -796,9 +796,11 @@ class HybridSystem:
                 "variables a family could leave free; list one per element that may stay fixed"
             )
         gauges = []
+        state = {v.name for v in self.variables}
+        known, expand = base_known | set(defs), _Expander(defs)  # once, not per gauge (issue 32)
         for text in texts:
-            g = _Expander(defs)(parse(text, base_known | set(defs), f"{pre}: orbit gauge"))
-            if "t" in free_symbols(g) or not (free_symbols(g) & {v.name for v in self.variables}):
+            g = expand(parse(text, known, f"{pre}: orbit gauge"))
+            if "t" in free_symbols(g) or not (free_symbols(g) & state):
                 raise ModelError(f"{pre}: orbit gauge {text!r} must depend on the state and not on t")
             if free_symbols(g) & set(self.quadratures):
                 raise ModelError(f"{pre}: orbit gauge {text!r} depends on a quadrature")
