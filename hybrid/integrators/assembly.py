@@ -288,6 +288,17 @@ class SparseAffineMode(AffineMode):
     def flow(self):
         return self.dense().flow()
 
+    def propagate_d(self, h: float, Yd: np.ndarray) -> np.ndarray:
+        """``expm(M h)[:nd, :nd] @ Yd`` without the dense flow: the action of the exponential of
+        the sparse generator on the columns (Al-Mohy and Higham's truncated Taylor series with
+        scaling, ``scipy.sparse.linalg.expm_multiply``, to double precision). A fundamental matrix
+        over a mode of a large system costs sparse products, not the eigen-decomposition of a new
+        dense generator at every mode change (issue 32: 0.3 s against 65 s at 256 blades)."""
+        nd = self.d.size
+        Z = np.zeros((self.nz, Yd.shape[1]))
+        Z[:nd] = Yd
+        return spla.expm_multiply(self.M * float(h), Z)[:nd]
+
     def guard_row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``k`` of ``W`` as ``(columns, values)`` (no sparse matrix made)."""
         W = self.W
