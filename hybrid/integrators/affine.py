@@ -421,8 +421,10 @@ class AffineAnalysis:
         self._groups: list[Expr] = []  # distinct forcing rates (up to sign): one S, C pair each in u
         self._rate_group: list[int] = []
         self.forms: list[ModeForm] = []
-        self._index: tuple[list[str], dict[str, int]] = ([], {})  # the last symbols and their columns
-        modes = list(modes)
+        # the last (names, groups) and their symbols and columns: the parts of a composed system share
+        # them (one tuple of names for every form, not a copy each: O(N^2) memory at N parts)
+        self._index: tuple = (None, (), [], {})
+        modes = [(m[0], tuple(m[1]), *m[2:]) for m in modes]  # a tuple of names, shared as given
         if forcing:
             # every form has the same u: the S, C pairs of every group of rates of any mode
             for name, _names, diff_idx, alg_idx, f_expr, g_expr, guards in modes:
@@ -435,7 +437,7 @@ class AffineAnalysis:
             if qcache[0] is not names:  # the parts of a composed system share their names
                 qcache = (names, {j for j, nm in enumerate(names) if nm in qnames})
             self.forms.append(
-                self._form(name, list(names), diff_idx, alg_idx, f_expr, g_expr, guards, qcache[1], pset)
+                self._form(name, names, diff_idx, alg_idx, f_expr, g_expr, guards, qcache[1], pset)
             )
         nsg = len(self._rates)
         slots = {p: i for i, p in enumerate(self.params)}
@@ -477,11 +479,10 @@ class AffineAnalysis:
 
         if self._forcing is not None:  # every mode alike: all groups of the analysis, or none
             groups = list(range(len(self._groups))) if self._forcing else []
-        symbols = names + [sym_ for g in groups for sym_ in _harmonic_symbols(g)]
-
-        if self._index[0] != symbols:  # the parts of a composed system share their symbols
-            self._index = (symbols, {s: j for j, s in enumerate(symbols)})
-        index = self._index[1]
+        if not (self._index[0] is names and self._index[1] == tuple(groups)):
+            symbols = list(names) + [sym_ for g in groups for sym_ in _harmonic_symbols(g)]
+            self._index = (names, tuple(groups), symbols, {s: j for j, s in enumerate(symbols)})
+        symbols, index = self._index[2], self._index[3]
         nu = len(symbols)
 
         def row(e: Expr, what: str) -> dict[int, int]:
@@ -506,9 +507,7 @@ class AffineAnalysis:
                 )
             )
         W = _index_matrix([row(e, f"guard `{gname}`") for gname, e in guards], nu + 1)
-        return ModeForm(
-            name, tuple(names), d, a, q, list(range(first, len(self._rates))), groups, F, G, W, Qu
-        )
+        return ModeForm(name, names, d, a, q, list(range(first, len(self._rates))), groups, F, G, W, Qu)
 
     def evaluate(self, values) -> list[tuple]:
         """``(omega, d, a, q, M, P, Q, W, harmonics)`` of every mode at the parameter vector ``values``.
