@@ -40,12 +40,13 @@ from ..core.cache import LRUCache
 from ..core.errors import NotAffineError
 from ..model.codegen import compile_many
 from ..model.compiled import CompiledMode, CompiledSystem
-from ..model.expr import ZERO, Expr, diff, gradient, postorder, replace_nodes, substitute, sym, to_string
+from ..model.expr import ZERO, Expr, diff, postorder, replace_nodes, substitute, sym, to_string
 from ..model.expr import add as e_add
 from ..model.expr import call as e_call
 from ..model.expr import mul as e_mul
 from ..model.expr import num as e_num
 from ..model.expr import sub as e_sub
+from ..model.gradient import gradient
 from .flow import Flow, _cond1, shared_flow
 
 #: Step bounds whose guard Taylor rows an :class:`AffineMode` keeps (:meth:`AffineMode.guard_taylor_rows`).

@@ -33,7 +33,8 @@ import scipy.sparse.linalg as spla
 from ..core.budget import check_deadline
 from ..core.errors import AlgebraicSolveError, InputTypeError
 from .codegen import compile_many
-from .expr import ZERO, Expr, add, diff, free_symbols, gradient, mul, num, sub, substitute, sym
+from .expr import ZERO, Expr, add, diff, free_symbols, mul, num, sub, substitute, sym
+from .gradient import gradient
 from .guard import CompiledGuard
 from .modebase import ModeMethods
 

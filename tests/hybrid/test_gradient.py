@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from hybrid.model.codegen import compile_many
-from hybrid.model.expr import ZERO, diff, gradient, parse
+from hybrid.model.expr import ZERO, diff, parse
+from hybrid.model.gradient import gradient
 
 SYMS = ["x", "y", "z", "p"]
 CASES = [
