@@ -24,6 +24,8 @@ contacts is derived in time linear in ``N``.
 
 from __future__ import annotations
 
+import re
+
 from hybrid import HybridSystem, Mode, ModelError, Transition, Variable
 from hybrid.model.elements import Component, Parameter
 from hybrid.model.system import MODE_SEPARATOR
@@ -44,6 +46,11 @@ HUB_TERMS = 8
 #: one (the energy of a thousand springs, the dissipation of a thousand contacts) is summed in parts,
 #: each a definition ``__sumK``.
 SUM_BUDGET = 4000
+#: Most operators (signs of the sum, and the operators, parentheses and commas inside its terms)
+#: in one part of a long sum: the engine parses at most 1000 per expression (a mass on 3000
+#: springs wrote parts of 4000 characters with 1333 operators: issue 32).
+SUM_OPERATORS = 800
+_OPERATOR = re.compile(r"[-+*/^,(]")
 
 
 def _paren(text: str) -> str:
@@ -96,16 +103,18 @@ class _Derivation:
     def total(self, terms: list[str]) -> str:
         """A sum of signed terms as text, in parts (definitions ``__sumK``) where it is long."""
         text = _join(terms)
-        if len(text) <= SUM_BUDGET:
+        if len(text) <= SUM_BUDGET and len(_OPERATOR.findall(text)) <= SUM_OPERATORS:
             return text
         chunks: list[list[str]] = [[]]
-        size = 0
+        size = ops = 0
         for t in terms:
-            if size + len(t) + 3 > SUM_BUDGET and chunks[-1]:
+            n_ops = len(_OPERATOR.findall(t)) + 1
+            if (size + len(t) + 3 > SUM_BUDGET or ops + n_ops > SUM_OPERATORS) and chunks[-1]:
                 chunks.append([])
-                size = 0
+                size = ops = 0
             chunks[-1].append(t)
             size += len(t) + 3
+            ops += n_ops
         names = []
         for chunk in chunks:
             name = f"__sum{len(self.parts) + 1}"

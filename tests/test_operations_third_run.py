@@ -446,7 +446,7 @@ def test_the_documented_limits_of_size_are_the_limits_the_code_enforces():
         what, most, where = (c.strip() for c in row.strip("|").split("|"))
         module, _, name = where.strip("`").rpartition(".")
         found[where] = (int(most.split()[0]), getattr(importlib.import_module(module), name))
-    assert len(found) == 16
+    assert len(found) == 23  # issue 32: every limit of size (tests/test_limits_of_size.py)
     assert {w: v[0] for w, v in found.items()} == {w: v[1] for w, v in found.items()}
     import hybrid_models.network_cells
     import hybrid_models.network_read

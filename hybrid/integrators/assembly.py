@@ -141,9 +141,10 @@ class ComposedAnalysis:
         a = np.concatenate([f.a for f in forms]).astype(int)
         q = np.concatenate([f.q for f in forms]).astype(int)
         od, oa, oq = np.argsort(d), np.argsort(a), np.argsort(q)
-        F = np.concatenate([f.F for f in forms])[od]
-        G = np.concatenate([f.G for f in forms])[oa]
-        Qu = np.concatenate([f.Qu for f in forms])[oq]
+        F = sp.vstack([f.F for f in forms], format="csr")[od]
+        G = sp.vstack([f.G for f in forms], format="csr")[oa]
+        Qu = [Qj for f in forms for Qj in f.Qu]
+        Qu = [Qu[j] for j in oq]
         width = forms[0].F.shape[1]
         rows = []
         part_slots, slot_of = slots
@@ -151,12 +152,12 @@ class ComposedAnalysis:
             form = forms[p]
             for j in range(len(part_slots[p])):
                 if j < len(slot_of[p][k]):
-                    rows.append(form.Wu[j])
+                    rows.append(form.Wu[[j]])
                 else:
-                    row = np.zeros(width, dtype=int)
-                    row[-1] = self.one
-                    rows.append(row)
-        W = np.array(rows, dtype=int).reshape(len(rows), width)
+                    rows.append(
+                        sp.csr_array(([self.one], ([0], [width - 1])), shape=(1, width), dtype=np.int64)
+                    )
+        W = sp.vstack(rows, format="csr") if rows else sp.csr_array((0, width), dtype=np.int64)
         merged = ModeForm(
             self.system.mode_label(key), self.names, d[od], a[oa], q[oq], [], forms[0].groups, F, G, W, Qu
         )
@@ -225,11 +226,14 @@ class ComposedFlows:
 DENSE_LIMIT = 64
 
 
-def _triplets(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The positions ``(row, col)`` of the coefficients of an index array that are not the constant
-    zero (index 0 of the analysis' values), and their indices."""
-    r, c = np.nonzero(idx)
-    return r, c, idx[r, c]
+def _triplets(idx: sp.csr_array) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The positions ``(row, col)`` of the coefficients of a sparse index matrix that are not the
+    constant zero (index 0 of the analysis' values), and their indices, row by row."""
+    coo = idx.tocoo()
+    keep = coo.data != 0
+    r, c, i = coo.row[keep], coo.col[keep], coo.data[keep]
+    order = np.lexsort((c, r))
+    return r[order].astype(int), c[order].astype(int), i[order].astype(int)
 
 
 class _SparsePart:
@@ -283,6 +287,17 @@ class SparseAffineMode(AffineMode):
 
     def flow(self):
         return self.dense().flow()
+
+    def propagate_d(self, h: float, Yd: np.ndarray) -> np.ndarray:
+        """``expm(M h)[:nd, :nd] @ Yd`` without the dense flow: the action of the exponential of
+        the sparse generator on the columns (Al-Mohy and Higham's truncated Taylor series with
+        scaling, ``scipy.sparse.linalg.expm_multiply``, to double precision). A fundamental matrix
+        over a mode of a large system costs sparse products, not the eigen-decomposition of a new
+        dense generator at every mode change (issue 32: 0.3 s against 65 s at 256 blades)."""
+        nd = self.d.size
+        Z = np.zeros((self.nz, Yd.shape[1]))
+        Z[:nd] = Yd
+        return spla.expm_multiply(self.M * float(h), Z)[:nd]
 
     def guard_row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Row ``k`` of ``W`` as ``(columns, values)`` (no sparse matrix made)."""

@@ -591,8 +591,9 @@ class ExactSensitivity:
         s = [int(i) for i in s]
         n = am.P.shape[0]
         self.n = n
-        self.pos_d = np.array([s.index(int(i)) for i in am.d], dtype=int)
-        self.pos_a = np.array([s.index(int(i)) for i in am.a], dtype=int)
+        at = {i: k for k, i in enumerate(s)}  # not s.index per variable: O(n^2) in a large system
+        self.pos_d = np.array([at[int(i)] for i in am.d], dtype=int)
+        self.pos_a = np.array([at[int(i)] for i in am.a], dtype=int)
         self.pos_p = np.array([k for k, i in enumerate(s) if i >= n], dtype=int)
         self.rows = np.array([k for k, i in enumerate(s) if i < n], dtype=int)  # state rows of Y
         self.state_idx = np.array([i for i in s if i < n], dtype=int)
@@ -626,15 +627,18 @@ class ExactSensitivity:
     ) -> tuple[None, np.ndarray]:
         """``Y(t1)`` from ``Y(t0)`` (the state is needed only for a parameter column)."""
         h = float(t1) - float(t0)
-        E = self._cache.get(h)
-        if E is None:
-            nd = self.am.d.size
-            E = self.am.flow().matrix(h)[:nd, :nd]
-            if len(self._cache) > 256:
-                self._cache.clear()
-            self._cache[h] = E
         Y0 = np.asarray(Y0)
-        Yd = E @ Y0[self.pos_d]
+        if self.am_pm is None and isinstance(self.am, SparseAffineMode):  # no dense flow (issue 32)
+            Yd = self.am.propagate_d(h, Y0[self.pos_d])
+        else:
+            E = self._cache.get(h)
+            if E is None:
+                nd = self.am.d.size
+                E = self.am.flow().matrix(h)[:nd, :nd]
+                if len(self._cache) > 256:
+                    self._cache.clear()
+                self._cache[h] = E
+            Yd = E @ Y0[self.pos_d]
         Y = np.zeros((self.ns, Y0.shape[1]))
         Y[self.pos_d] = Yd
         if self.pos_a.size:
@@ -695,7 +699,7 @@ class ExactVariational:
         if hit is None:
             pm = self._pm
             hit = self._modes[m] = ExactSensitivity(
-                _dense(self._base[m]),
+                self._base[m] if pm is None else _dense(self._base[m]),
                 self.s,
                 None if pm is None else (_dense(pm[0][m]), _dense(pm[1][m]), pm[2]),
             )

@@ -34,6 +34,7 @@ from ..core.budget import check_deadline
 from ..core.errors import AlgebraicSolveError, InputTypeError
 from .codegen import compile_many
 from .expr import ZERO, Expr, add, diff, free_symbols, mul, num, sub, substitute, sym
+from .gradient import gradient
 from .guard import CompiledGuard
 from .modebase import ModeMethods
 
@@ -185,8 +186,9 @@ class ComposedForm:
         for i, e in enumerate(grows):
             if i and not i & 63:
                 check_deadline("differentiating the model's residual")
-            for nm in sorted(free_symbols(e) & index.keys(), key=index.__getitem__):
-                d = diff(e, nm)
+            grad = gradient(e, index)  # one sweep per row, not one per symbol (issue 32)
+            for nm in sorted(grad, key=index.__getitem__):
+                d = grad[nm]
                 if not (d.op == "num" and d.args[0] == 0.0):
                     terms.append((i, index[nm], d))
         self.jac_terms = terms
@@ -264,8 +266,9 @@ class ComposedForm:
         )
         gterms: list[tuple[int, int, Expr]] = []
         for s, e in enumerate(slot_exprs):
-            for nm in sorted(free_symbols(e) & index.keys(), key=index.__getitem__):
-                d = diff(e, nm)
+            grad = gradient(e, index)
+            for nm in sorted(grad, key=index.__getitem__):
+                d = grad[nm]
                 if not (d.op == "num" and d.args[0] == 0.0):
                     gterms.append((s, index[nm], d))
         self.guard_grad = (

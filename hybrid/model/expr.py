@@ -21,7 +21,16 @@ from collections.abc import Callable, Mapping
 
 from ..core.errors import ExpressionError
 
-__all__ = ["FUNCTIONS", "Expr", "parse", "diff", "substitute", "free_symbols", "to_data", "from_data"]
+__all__ = [
+    "FUNCTIONS",
+    "Expr",
+    "parse",
+    "diff",
+    "substitute",
+    "free_symbols",
+    "to_data",
+    "from_data",
+]
 
 MAX_EXPRESSION_LENGTH = 10_000
 

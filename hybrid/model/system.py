@@ -33,6 +33,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from ..core.budget import check_deadline
 from ..core.cache import DerivedCache, LRUCache
 from ..core.errors import ExpressionError, InputError, InputTypeError, ModelError
 from .codegen import compile_scalar
@@ -689,7 +690,9 @@ class HybridSystem:
         shared_expand = _Expander(parsed_defs)
         vset, pset = set(vnames), set(pnames)
         vindex = {n: i for i, n in enumerate(vnames)}
-        for c in self.components:
+        for k, c in enumerate(self.components):
+            if k and not k & 255:  # a large model's set-up honours the deadline in force (--max-time)
+                check_deadline(f"reading the model's components ({k} of {len(self.components)} read)")
             where = f"{pre}: component `{c.name}`"
             modes: dict[str, dict] = {}
             for m in c.modes:
@@ -793,9 +796,11 @@ class HybridSystem:
                 "variables a family could leave free; list one per element that may stay fixed"
             )
         gauges = []
+        state = {v.name for v in self.variables}
+        known, expand = base_known | set(defs), _Expander(defs)  # once, not per gauge (issue 32)
         for text in texts:
-            g = _Expander(defs)(parse(text, base_known | set(defs), f"{pre}: orbit gauge"))
-            if "t" in free_symbols(g) or not (free_symbols(g) & {v.name for v in self.variables}):
+            g = expand(parse(text, known, f"{pre}: orbit gauge"))
+            if "t" in free_symbols(g) or not (free_symbols(g) & state):
                 raise ModelError(f"{pre}: orbit gauge {text!r} must depend on the state and not on t")
             if free_symbols(g) & set(self.quadratures):
                 raise ModelError(f"{pre}: orbit gauge {text!r} depends on a quadrature")
