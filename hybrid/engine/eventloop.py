@@ -44,6 +44,12 @@ __all__ = ["step_bound"]
 #: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
 CAREFUL_FIRST_STEP = 1e-6
 
+#: Output times handed to a solver in one call (:meth:`Run.segment_outputs`; fewer for a large state,
+#: whose rows IDA's wrapper allocates at once: at most OUTPUT_VALUES_PER_CALL values): the budget,
+#: the time limit and the progress are checked between calls.
+OUTPUTS_PER_CALL = 1024
+OUTPUT_VALUES_PER_CALL = 131072
+
 
 class _CallbackFailed(Exception):
     """The user's progress callback raised (re-raised unchanged by :func:`simulate`)."""
@@ -110,6 +116,7 @@ class Run:
         # together at one instant)
         self.recent = deque(maxlen=options.zeno_count * (1 + len(cs.system.components)))
         self.nfev = self.njev = self.n_steps = 0
+        self.cost_per_output: float | None = None  # IDA's residual evaluations per output (segment_outputs)
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
@@ -149,8 +156,10 @@ class Run:
         for ev in self.events:
             self.rec.add_event(ev)
         self.events.clear()
+        cm = self.cs.modes[mode]
         try:
-            self.rec.add(t, self.project(self.cs.modes[mode], t, y), mode)
+            # (the recorder copies y: no copy here where there is no slave variable to re-solve)
+            self.rec.add(t, self.project(cm, t, y) if cm.alg_idx.size else y, mode)
         except SampleCapReached as exc:
             raise _Stop(Status.MAX_SAMPLES, str(exc)) from None
 
@@ -467,6 +476,10 @@ class Run:
         # A solver with exact dense output (the exact integrator) is not stepped to each sample:
         # the samples of a step are taken from its flow afterwards, all at once.
         dense = getattr(solver, "dense", False)
+        if not (self.record_steps or disarmed or dense or self.samples is None) and hasattr(
+            solver, "advance"
+        ):
+            return self.segment_outputs(solver, cm, t, y, yp, mode, careful)
         many = (lambda ts: (solver.interpolate_many(ts), mode)) if dense else None
         try:
             while True:
@@ -501,7 +514,7 @@ class Run:
                         + f": {explain(r.status, r.message)}"
                         + self.advice(r.status),
                     )
-                if not np.all(np.isfinite(r.y)):
+                if not np.isfinite(r.y).all():  # (the method, not np.all: a step of IDA is ~20 us)
                     raise _Stop(
                         Status.SOLVER_FAILED, f"state became non-finite at t={r.t!r} in mode `{cm.name}`"
                     )
@@ -543,22 +556,106 @@ class Run:
                         r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False, many=many
                     )
                     return self.switch(cm, fired, r.t, r.y)
-                self.emit_samples_upto(
-                    r.t,
-                    lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode),
-                    inclusive=True,
-                    many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode))
-                    if dense
-                    else None,
-                )
-                if self.record_steps:
+                if self.samples is not None:
+                    self.emit_samples_upto(
+                        r.t,
+                        lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode),
+                        inclusive=True,
+                        many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode))
+                        if dense
+                        else None,
+                    )
+                else:  # every step is a sample
                     self.record(r.t, r.y, mode)
-                self.report(r.t)
+                if self.progress is not None:
+                    self.report(r.t)
                 if r.status == TSTOP or r.t >= self.t1:
                     return self.t1, r.y, mode, r.yp, {}
         finally:
             self.nfev += solver.nfev_last
             self.njev += solver.njev_last
+
+    def upcoming(self, t: float) -> np.ndarray:
+        """The next output times of a solver's call from ``t``: the samples after ``t``, the end of
+        the run if they reach it, and at least two times.
+
+        As many samples as the budget allows at the cost per output seen so far in the run (half
+        of what remains; two while none is known, as many calls into IDA as before: each output
+        interval may take IDA's ``max_num_steps``), at most :data:`OUTPUTS_PER_CALL` and
+        :data:`OUTPUT_VALUES_PER_CALL` values: a run whose dynamics turn fast is stopped by its
+        budget as soon as before."""
+        s = self.samples
+        per_call = max(2, min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1)))
+        if self.cost_per_output is None:
+            per_call = 2
+        else:
+            left = max(self.budget.max_steps - self.nfev, 0)
+            per_call = max(2, min(per_call, int(0.5 * left / max(self.cost_per_output, 1.0))))
+        j = min(self.next_sample + per_call, s.size)
+        ts = (
+            s.times(self.next_sample, j) if isinstance(s, SampleGrid) else np.asarray(s[self.next_sample : j])
+        )
+        ts = ts[ts > t]
+        if j == s.size and (ts.size == 0 or ts[-1] < self.t1):
+            ts = np.append(ts, self.t1)
+        if ts.size < 2:  # (one output would be one-step mode for scikit-sundae: add the midpoint)
+            ts = np.array([0.5 * (t + ts[0]), ts[0]])
+        return ts
+
+    def segment_outputs(self, solver, cm: CompiledMode, t, y, yp, mode: int, careful: bool):
+        """:meth:`segment` where the solver goes from output to output itself (IDA's normal mode over
+        all the samples of the segment in one call, issue 34): no Python call per sample or internal
+        step; the budget, time limit and progress between calls of :data:`OUTPUTS_PER_CALL` outputs."""
+        t_start, y_start, yp_start = t, y, yp
+        where = f" in mode `{cm.name}`"
+        while True:
+            ts = self.upcoming(t)
+            rows_t, rows_y, r = solver.advance(ts)
+            self.n_steps += 1
+            # residual evaluations per output interval (the largest seen: the next calls' size)
+            cost = solver.nfev_last / max(int(np.sum(ts <= r.t)), 1)
+            self.cost_per_output = cost if self.cost_per_output is None else max(self.cost_per_output, cost)
+            self.nfev += solver.nfev_last
+            self.njev += solver.njev_last
+            if r.status >= 0 or r.t > t:
+                self.current = (r.t, r.y, mode)
+            self.budget.check(self.nfev, self.current[0], where)
+            if rows_y.size and not np.isfinite(rows_y).all() or not np.isfinite(r.y).all():
+                raise _Stop(
+                    Status.SOLVER_FAILED, f"state became non-finite near t={r.t!r} in mode `{cm.name}`"
+                )
+
+            def many(q, rows_t=rows_t, rows_y=rows_y):
+                return rows_y[np.searchsorted(rows_t, q)], mode
+
+            if r.status < 0:
+                if r.status == -1 and r.t > t:  # IDA's steps per output interval ran out: go on from there
+                    self.emit_samples_upto(r.t, None, inclusive=False, many=many)
+                    solver.start(r.t, r.y, r.yp)
+                    t = r.t
+                    continue
+                if r.status in (-3, -4) and t == t_start and r.t == t_start and not careful:
+                    # failed on the first step: restart once with a small first step (see segment)
+                    return self.segment(t_start, y_start, yp_start, mode, {}, careful=True)
+                t_fail = r.t if math.isfinite(r.t) else self.current[0]
+                raise _Stop(
+                    Status.SOLVER_FAILED,
+                    f"IDA failed in mode `{cm.name}` at t={t_fail!r}"
+                    + (" (also with a small first step)" if careful and t_fail == t_start else "")
+                    + f": {explain(r.status, r.message)}"
+                    + self.advice(r.status),
+                )
+            if r.status == ROOT and r.fired:
+                self.emit_samples_upto(r.t, None, inclusive=False, many=many)
+                self.unresolved = 0
+                return self.switch(cm, r.fired[0], r.t, r.y)
+            self.emit_samples_upto(r.t, None, inclusive=True, many=many)
+            if self.progress is not None:
+                self.report(r.t)
+            if r.t >= self.t1:
+                return self.t1, r.y, mode, r.yp, {}
+            solver.start(r.t, r.y, r.yp)  # the next outputs (IDA re-started at the last one)
+            t = r.t
 
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]
