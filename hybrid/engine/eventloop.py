@@ -116,7 +116,7 @@ class Run:
         # together at one instant)
         self.recent = deque(maxlen=options.zeno_count * (1 + len(cs.system.components)))
         self.nfev = self.njev = self.n_steps = 0
-        self.cost_per_output: float | None = None  # IDA's residual evaluations per output (segment_outputs)
+        self.stepwise = False  # True once a call from output to output outgrew its allowance (watch)
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
@@ -455,9 +455,10 @@ class Run:
             self.record(ts, ys, m)
             self.next_sample += 1
 
-    def segment(self, t, y, yp, mode, disarmed, careful: bool = False):
+    def segment(self, t, y, yp, mode, disarmed, careful: bool = False, stepwise: bool = False):
         """Integrate in ``mode`` from ``(t, y)`` up to the next switch or the end (``careful``:
-        with a small first step, after IDA failed on its own first step)."""
+        with a small first step, after IDA failed on its own first step; ``stepwise``: with a call
+        into the solver per output or step, not :meth:`segment_outputs`)."""
         cm = self.cs.modes[mode]
         solver = self.solver(mode, careful)
         solver.armed[:] = True
@@ -476,10 +477,11 @@ class Run:
         # A solver with exact dense output (the exact integrator) is not stepped to each sample:
         # the samples of a step are taken from its flow afterwards, all at once.
         dense = getattr(solver, "dense", False)
-        if not (self.record_steps or disarmed or dense or self.samples is None) and hasattr(
+        stepwise = stepwise or careful or self.stepwise
+        if not (self.record_steps or disarmed or dense or stepwise or self.samples is None) and hasattr(
             solver, "advance"
         ):
-            return self.segment_outputs(solver, cm, t, y, yp, mode, careful)
+            return self.segment_outputs(solver, cm, t, y, yp, mode)
         many = (lambda ts: (solver.interpolate_many(ts), mode)) if dense else None
         try:
             while True:
@@ -576,21 +578,17 @@ class Run:
             self.njev += solver.njev_last
 
     def upcoming(self, t: float) -> np.ndarray:
-        """The next output times of a solver's call from ``t``: the samples after ``t``, the end of
-        the run if they reach it, and at least two times.
+        """The output times of a solver's call from ``t``: the samples after ``t`` (at most
+        :data:`OUTPUTS_PER_CALL`, and :data:`OUTPUT_VALUES_PER_CALL` values), then the end of the
+        run if they reach it.
 
-        As many samples as the budget allows at the cost per output seen so far in the run (half
-        of what remains; two while none is known, as many calls into IDA as before: each output
-        interval may take IDA's ``max_num_steps``), at most :data:`OUTPUTS_PER_CALL` and
-        :data:`OUTPUT_VALUES_PER_CALL` values: a run whose dynamics turn fast is stopped by its
-        budget as soon as before."""
+        Where the samples left fit into one call (an orbit's sampled period, any run of up to
+        :data:`OUTPUTS_PER_CALL` samples) the call ends at the end of the run, IDA's stop time as in
+        :meth:`segment`: a sampled run is then the unsampled run to the last bit (issue 34: the
+        orbits take the sampled run of an iterate for the iterate). A longer run is cut into calls,
+        IDA started again at the last output of each."""
         s = self.samples
         per_call = max(2, min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1)))
-        if self.cost_per_output is None:
-            per_call = 2
-        else:
-            left = max(self.budget.max_steps - self.nfev, 0)
-            per_call = max(2, min(per_call, int(0.5 * left / max(self.cost_per_output, 1.0))))
         j = min(self.next_sample + per_call, s.size)
         ts = (
             s.times(self.next_sample, j) if isinstance(s, SampleGrid) else np.asarray(s[self.next_sample : j])
@@ -598,53 +596,48 @@ class Run:
         ts = ts[ts > t]
         if j == s.size and (ts.size == 0 or ts[-1] < self.t1):
             ts = np.append(ts, self.t1)
-        if ts.size < 2:  # (one output would be one-step mode for scikit-sundae: add the midpoint)
-            ts = np.array([0.5 * (t + ts[0]), ts[0]])
         return ts
 
-    def segment_outputs(self, solver, cm: CompiledMode, t, y, yp, mode: int, careful: bool):
+    def watch(self, calls: int) -> bool:
+        """Whether a call into the solver from output to output must stop (:meth:`segment_outputs`):
+        it took more than the budget's allowance of one call, or the run's budget is spent."""
+        return calls > self.budget.call_allowance or self.budget.overdue(self.nfev + calls)
+
+    def segment_outputs(self, solver, cm: CompiledMode, t, y, yp, mode: int):
         """:meth:`segment` where the solver goes from output to output itself (IDA's normal mode over
-        all the samples of the segment in one call, issue 34): no Python call per sample or internal
-        step; the budget, time limit and progress between calls of :data:`OUTPUTS_PER_CALL` outputs."""
-        t_start, y_start, yp_start = t, y, yp
+        the samples in one call, issue 34): no Python call per sample or internal step; the budget,
+        time limit and progress between calls.
+
+        The same run as :meth:`segment`'s: where anything but an output, a crossing or the end comes
+        back (IDA's failures, its steps per output interval spent, a non-finite state) and where a
+        call outgrows the budget's allowance (:meth:`watch`: the run goes on step by step, its budget
+        checked after each), the segment goes on from the call's start with :meth:`segment`
+        (``stepwise``), which says what happened as it does without this path."""
         where = f" in mode `{cm.name}`"
         while True:
             ts = self.upcoming(t)
-            rows_t, rows_y, r = solver.advance(ts)
+            if ts.size < 2:
+                # One output is one call of step() (scikit-sundae's solve() would take it in one-step
+                # mode; an output added before it would change IDA's first step, 0.001 x the distance
+                # to the first output, and the run with it)
+                return self.segment(t, y, yp, mode, {}, stepwise=True)
+            got = solver.advance(ts, watch=self.watch)
+            if got is None:  # this call outgrew its allowance: step by step from here, for the run
+                self.stepwise = True
+                return self.segment(t, y, yp, mode, {}, stepwise=True)
+            rows_t, rows_y, r = got
+            if r.status < 0 or not np.isfinite(r.y).all() or (rows_y.size and not np.isfinite(rows_y).all()):
+                # said (and handled: a careful restart, the steps per interval) as segment() does
+                return self.segment(t, y, yp, mode, {}, stepwise=True)
             self.n_steps += 1
-            # residual evaluations per output interval (the largest seen: the next calls' size)
-            cost = solver.nfev_last / max(int(np.sum(ts <= r.t)), 1)
-            self.cost_per_output = cost if self.cost_per_output is None else max(self.cost_per_output, cost)
             self.nfev += solver.nfev_last
             self.njev += solver.njev_last
-            if r.status >= 0 or r.t > t:
-                self.current = (r.t, r.y, mode)
-            self.budget.check(self.nfev, self.current[0], where)
-            if rows_y.size and not np.isfinite(rows_y).all() or not np.isfinite(r.y).all():
-                raise _Stop(
-                    Status.SOLVER_FAILED, f"state became non-finite near t={r.t!r} in mode `{cm.name}`"
-                )
+            self.current = (r.t, r.y, mode)
+            self.budget.check(self.nfev, r.t, where)
 
             def many(q, rows_t=rows_t, rows_y=rows_y):
                 return rows_y[np.searchsorted(rows_t, q)], mode
 
-            if r.status < 0:
-                if r.status == -1 and r.t > t:  # IDA's steps per output interval ran out: go on from there
-                    self.emit_samples_upto(r.t, None, inclusive=False, many=many)
-                    solver.start(r.t, r.y, r.yp)
-                    t = r.t
-                    continue
-                if r.status in (-3, -4) and t == t_start and r.t == t_start and not careful:
-                    # failed on the first step: restart once with a small first step (see segment)
-                    return self.segment(t_start, y_start, yp_start, mode, {}, careful=True)
-                t_fail = r.t if math.isfinite(r.t) else self.current[0]
-                raise _Stop(
-                    Status.SOLVER_FAILED,
-                    f"IDA failed in mode `{cm.name}` at t={t_fail!r}"
-                    + (" (also with a small first step)" if careful and t_fail == t_start else "")
-                    + f": {explain(r.status, r.message)}"
-                    + self.advice(r.status),
-                )
             if r.status == ROOT and r.fired:
                 self.emit_samples_upto(r.t, None, inclusive=False, many=many)
                 self.unresolved = 0
@@ -654,8 +647,9 @@ class Run:
                 self.report(r.t)
             if r.t >= self.t1:
                 return self.t1, r.y, mode, r.yp, {}
-            solver.start(r.t, r.y, r.yp)  # the next outputs (IDA re-started at the last one)
-            t = r.t
+            # the next outputs: IDA started again at the last one (a run of more samples than a call)
+            t, y, yp = r.t, r.y, r.yp
+            solver.start(t, y, yp)
 
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]

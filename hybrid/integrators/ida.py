@@ -93,6 +93,15 @@ def _call(ida, t: float, method: str, tstop: float | None):
             return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae{detail}"), kept.text
 
 
+#: Residual evaluations between two calls of the watch of :meth:`ModeSolver.advance`.
+WATCH_EVERY = 256
+
+
+class Overrun(Exception):
+    """Raised inside IDA's call by the residual function where :meth:`ModeSolver.advance`'s watch
+    says stop (caught there: the call returns None)."""
+
+
 class ModeSolver:
     """IDA integrator for one compiled mode.
 
@@ -142,8 +151,15 @@ class ModeSolver:
         if not cj_at.any():
             cj_at = None
 
+        # The watch of an :meth:`advance` call: [residual calls so far, its function or None]
+        self._watch = watch = [0, None]
+
         def resfn(t, y, yp, res):
             res[:] = res_fn([t, *y.tolist(), *yp.tolist()])
+            if watch[1] is not None:
+                watch[0] += 1
+                if watch[0] % WATCH_EVERY == 0 and watch[1](watch[0]):
+                    raise Overrun  # (out of IDA's call: scikit-sundae re-raises it)
 
         # The constant entries are written once into scikit-sundae's Jacobian buffer (the same array
         # at every call, read, never written, by scikit-sundae): a call writes the diagonal and the
@@ -252,24 +268,38 @@ class ModeSolver:
             self._t, self._y, self._yp = res.t, res.y, res.yp
         return res
 
-    def advance(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, StepResult]:
+    def advance(self, ts: np.ndarray, watch=None) -> tuple[np.ndarray, np.ndarray, StepResult] | None:
         """From the point of the last :meth:`start` through the output times ``ts`` (increasing,
-        after it; at least two) in one call into IDA, never past ``ts[-1]``, stopping at a crossing.
+        after it; at least two) in one call into IDA, never past ``ts[-1]`` (IDA's stop time, as
+        :meth:`step`'s ``tstop``), stopping at a crossing.
 
         Returns the times and states of the outputs reached (rows) and the end (a :class:`StepResult`:
         at ``ts[-1]``, at a crossing, or where IDA failed). IDA loops over the outputs itself: no
-        Python call per output or internal step (issue 34). Afterwards the solver must be started
-        again (:meth:`start`) before :meth:`step` or :meth:`interpolate`.
+        Python call per output or internal step (issue 34). Its internal steps are those of
+        :meth:`step` in normal mode towards each output with ``tstop = ts[-1]``: the same run to the
+        last bit (the outputs are interpolated, they do not cut steps). Afterwards the solver must be
+        started again (:meth:`start`) before :meth:`step` or :meth:`interpolate`.
+
+        ``watch(calls)``, if given, is called every :data:`WATCH_EVERY` residual evaluations of the
+        call with their number; where it returns True the call is abandoned and None returned (the
+        caller goes on another way, e.g. with :meth:`step`, from the point of :meth:`start`).
         """
         if self._events is not None:
             self._arm()
         tspan = np.concatenate([[self._t], np.asarray(ts, dtype=float)])
-        with kept_prints() as kept:
-            try:
-                r = self._ida.solve(tspan, self._y, self._yp)
-            except KeyError as exc:
-                r = None
-                flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
+        self._watch[:] = [0, watch]
+        try:
+            with kept_prints() as kept:
+                try:
+                    r = self._ida.solve(tspan, self._y, self._yp)
+                except KeyError as exc:
+                    r = None
+                    flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
+        except Overrun:
+            self._clear_events()
+            return None
+        finally:
+            self._watch[1] = None
         words = kept.text
         if r is None:
             detail = f": {words}" if words else ""
