@@ -44,11 +44,12 @@ __all__ = ["step_bound"]
 #: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
 CAREFUL_FIRST_STEP = 1e-6
 
-#: Output times handed to a solver in one call (:meth:`Run.segment_outputs`; fewer for a large state,
-#: whose rows IDA's wrapper allocates at once: at most OUTPUT_VALUES_PER_CALL values): the budget,
-#: the time limit and the progress are checked between calls.
-OUTPUTS_PER_CALL = 1024
-OUTPUT_VALUES_PER_CALL = 131072
+#: Output times handed to IDA in one call (:meth:`Run.segment_outputs`; fewer for a large state, whose
+#: rows IDA's wrapper allocates at once: at most OUTPUT_VALUES_PER_CALL values). A segment whose
+#: samples left to the end of the run are more goes step by step (:meth:`Run.segment`): a call that
+#: ended before the end of the run would start IDA again, and a run of other steps has another error.
+OUTPUTS_PER_CALL = 8192
+OUTPUT_VALUES_PER_CALL = 2**19
 
 
 class _CallbackFailed(Exception):
@@ -577,26 +578,23 @@ class Run:
             self.nfev += solver.nfev_last
             self.njev += solver.njev_last
 
-    def upcoming(self, t: float) -> np.ndarray:
-        """The output times of a solver's call from ``t``: the samples after ``t`` (at most
-        :data:`OUTPUTS_PER_CALL`, and :data:`OUTPUT_VALUES_PER_CALL` values), then the end of the
-        run if they reach it.
-
-        Where the samples left fit into one call (an orbit's sampled period, any run of up to
-        :data:`OUTPUTS_PER_CALL` samples) the call ends at the end of the run, IDA's stop time as in
-        :meth:`segment`: a sampled run is then the unsampled run to the last bit (issue 34: the
-        orbits take the sampled run of an iterate for the iterate). A longer run is cut into calls,
-        IDA started again at the last output of each."""
+    def upcoming(self, t: float) -> np.ndarray | None:
+        """The output times of a solver's call from ``t`` to the end of the run: the samples after
+        ``t``, then the end if they do not reach it; None where they are more than one call takes
+        (:data:`OUTPUTS_PER_CALL`, :data:`OUTPUT_VALUES_PER_CALL` values) or fewer than two."""
         s = self.samples
-        per_call = max(2, min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1)))
-        j = min(self.next_sample + per_call, s.size)
+        per_call = min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1))
+        if s.size - self.next_sample > per_call:
+            return None
         ts = (
-            s.times(self.next_sample, j) if isinstance(s, SampleGrid) else np.asarray(s[self.next_sample : j])
+            s.times(self.next_sample, s.size)
+            if isinstance(s, SampleGrid)
+            else np.asarray(s[self.next_sample :])
         )
         ts = ts[ts > t]
-        if j == s.size and (ts.size == 0 or ts[-1] < self.t1):
+        if ts.size == 0 or ts[-1] < self.t1:
             ts = np.append(ts, self.t1)
-        return ts
+        return ts if ts.size >= 2 else None
 
     def watch(self, calls: int) -> bool:
         """Whether a call into the solver from output to output must stop (:meth:`segment_outputs`):
@@ -604,52 +602,48 @@ class Run:
         return calls > self.budget.call_allowance or self.budget.overdue(self.nfev + calls)
 
     def segment_outputs(self, solver, cm: CompiledMode, t, y, yp, mode: int):
-        """:meth:`segment` where the solver goes from output to output itself (IDA's normal mode over
-        the samples in one call, issue 34): no Python call per sample or internal step; the budget,
-        time limit and progress between calls.
+        """:meth:`segment` where IDA goes from output to output itself: the samples left and the end
+        of the run in one call (issue 34), no Python call per sample or internal step.
 
-        The same run as :meth:`segment`'s: where anything but an output, a crossing or the end comes
-        back (IDA's failures, its steps per output interval spent, a non-finite state) and where a
-        call outgrows the budget's allowance (:meth:`watch`: the run goes on step by step, its budget
-        checked after each), the segment goes on from the call's start with :meth:`segment`
-        (``stepwise``), which says what happened as it does without this path."""
-        where = f" in mode `{cm.name}`"
-        while True:
-            ts = self.upcoming(t)
-            if ts.size < 2:
-                # One output is one call of step() (scikit-sundae's solve() would take it in one-step
-                # mode; an output added before it would change IDA's first step, 0.001 x the distance
-                # to the first output, and the run with it)
-                return self.segment(t, y, yp, mode, {}, stepwise=True)
-            got = solver.advance(ts, watch=self.watch)
-            if got is None:  # this call outgrew its allowance: step by step from here, for the run
-                self.stepwise = True
-                return self.segment(t, y, yp, mode, {}, stepwise=True)
-            rows_t, rows_y, r = got
-            if r.status < 0 or not np.isfinite(r.y).all() or (rows_y.size and not np.isfinite(rows_y).all()):
-                # said (and handled: a careful restart, the steps per interval) as segment() does
-                return self.segment(t, y, yp, mode, {}, stepwise=True)
-            self.n_steps += 1
-            self.nfev += solver.nfev_last
-            self.njev += solver.njev_last
-            self.current = (r.t, r.y, mode)
-            self.budget.check(self.nfev, r.t, where)
+        The same run as :meth:`segment`'s to the last bit: IDA's stop time is the end of the run as
+        there, and the first output the same (IDA's first step is 0.001 x the distance to it). Where
+        :meth:`upcoming` has no call (more samples left than a call takes, or a lone output: one call
+        of step() anyway), where anything but a crossing or the end comes back (IDA's failures, its
+        steps per output interval spent, a non-finite state) and where the call outgrows the budget's
+        allowance (:meth:`watch`: then for the rest of the run, its budget checked after each step), the
+        segment is made by :meth:`segment` (``stepwise``) from its start, which says what happened
+        as it does without this path."""
+        ts = self.upcoming(t)
+        if ts is None:
+            return self.segment(t, y, yp, mode, {}, stepwise=True)
+        got = solver.advance(ts, watch=self.watch)
+        if got is None:  # the call outgrew its allowance: step by step, for the rest of the run
+            self.stepwise = True
+            return self.segment(t, y, yp, mode, {}, stepwise=True)
+        rows_t, rows_y, r = got
+        if (
+            (r.status < 0 or (r.status != ROOT and r.t < self.t1))
+            or not np.isfinite(r.y).all()
+            or (rows_y.size and not np.isfinite(rows_y).all())
+        ):
+            return self.segment(t, y, yp, mode, {}, stepwise=True)
+        self.n_steps += 1
+        self.nfev += solver.nfev_last
+        self.njev += solver.njev_last
+        self.current = (r.t, r.y, mode)
+        self.budget.check(self.nfev, r.t, f" in mode `{cm.name}`")
 
-            def many(q, rows_t=rows_t, rows_y=rows_y):
-                return rows_y[np.searchsorted(rows_t, q)], mode
+        def many(q):
+            return rows_y[np.searchsorted(rows_t, q)], mode
 
-            if r.status == ROOT and r.fired:
-                self.emit_samples_upto(r.t, None, inclusive=False, many=many)
-                self.unresolved = 0
-                return self.switch(cm, r.fired[0], r.t, r.y)
-            self.emit_samples_upto(r.t, None, inclusive=True, many=many)
-            if self.progress is not None:
-                self.report(r.t)
-            if r.t >= self.t1:
-                return self.t1, r.y, mode, r.yp, {}
-            # the next outputs: IDA started again at the last one (a run of more samples than a call)
-            t, y, yp = r.t, r.y, r.yp
-            solver.start(t, y, yp)
+        if r.status == ROOT and r.fired:
+            self.emit_samples_upto(r.t, None, inclusive=False, many=many)
+            self.unresolved = 0
+            return self.switch(cm, r.fired[0], r.t, r.y)
+        self.emit_samples_upto(r.t, None, inclusive=True, many=many)
+        if self.progress is not None:
+            self.report(r.t)
+        return self.t1, r.y, mode, r.yp, {}
 
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]
