@@ -287,7 +287,7 @@ def run_taylor(ch, T, delta=0.05, order=24, tol_v=1e-11, tol_f=1e-11, tol_g=1e-1
 # ----------------------------------------------------------------------------- ivp backend
 
 
-def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP853"):
+def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP853", max_step=math.inf):
     from scipy.integrate import solve_ivp
 
     N, p = ch.N, ch.p
@@ -299,6 +299,7 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
     mode, v = ch.decide(t, x, v, mode, tol_v, tol_f)
     switches, reversals = [], []
     n_events = 0
+    n_steps = 0  # solve_ivp's steps, over all phases (benchmarks/peer_ivp.py)
     while t < T - 1e-14:
         M = ch.matrix(mode)
         A = M[: 2 * N, : 2 * N]
@@ -323,7 +324,18 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
             g.direction = -1
             evs.append(g)
         y0 = np.concatenate([x, v])
-        sol = solve_ivp(rhs, (t, T), y0, method=method, rtol=rtol, atol=atol, events=evs, dense_output=False)
+        sol = solve_ivp(
+            rhs,
+            (t, T),
+            y0,
+            method=method,
+            rtol=rtol,
+            atol=atol,
+            events=evs,
+            dense_output=False,
+            max_step=max_step,
+        )
+        n_steps += sol.t.size - 1
         # earliest event strictly after t (ignore a re-detection of the just-switched root)
         tev, yev = None, None
         for te, ye in zip(sol.t_events, sol.y_events, strict=False):
@@ -346,7 +358,9 @@ def run_ivp(ch, T, rtol=1e-12, atol=1e-14, tol_v=1e-9, tol_f=1e-9, method="DOP85
                 switches.append([t, i + 1, "slip"])
             elif old[i] != 0 and mode[i] == -old[i]:
                 reversals.append([t, i + 1])
-    return dict(t=t, x=x, v=v, mode=mode, switches=switches, reversals=reversals, n_events=n_events)
+    return dict(
+        t=t, x=x, v=v, mode=mode, switches=switches, reversals=reversals, n_events=n_events, n_steps=n_steps
+    )
 
 
 # ----------------------------------------------------------------------------- main

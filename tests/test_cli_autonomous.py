@@ -87,3 +87,36 @@ def test_frc_of_an_autonomous_model_points_to_cont(tmp_path, capsys):
     assert "declares no forcing `period`" in err
     assert "hybrid cont belt --param NAME --range A B" in err
     assert "Traceback" not in err
+
+
+def test_simulate_an_autonomous_model_on_n_samples_matches_every_step(tmp_path, capsys):
+    # issue 34: `--samples N` puts N evenly spaced samples on a model without a period (IDA goes
+    # from one to the next inside SUNDIALS); the run is the same run: the same switches, the same
+    # final state to the tolerances
+    argv = ["simulate", "belt_stribeck", "--t-end", "60", "--no-plot"]
+    code, _, err = run([*argv, "--samples", "121", "--out", str(tmp_path / "n")], capsys)
+    assert code == 0, err
+    code, _, err = run([*argv, "--out", str(tmp_path / "all")], capsys)
+    assert code == 0, err
+
+    def rows(name):
+        with (tmp_path / name / "trajectory.csv").open() as f:
+            return list(csv.DictReader(f))
+
+    def switches(name):
+        with (tmp_path / name / "events.csv").open() as f:
+            return [float(r["t [s]"]) for r in csv.DictReader(f)]
+
+    sampled, every = rows("n"), rows("all")
+    grid = [float(r["t [s]"]) for r in sampled if float(r["t [s]"]) not in switches("n")]
+    assert grid == pytest.approx([0.5 * k for k in range(121)], abs=1e-12)
+    assert len(every) > 2 * len(sampled)  # every internal step is a sample without --samples
+    assert switches("n") == pytest.approx(switches("all"), abs=1e-9)
+    for v in ("x [m]", "w [m/s]"):
+        assert float(sampled[-1][v]) == pytest.approx(float(every[-1][v]), abs=1e-7)
+
+
+def test_samples_is_refused_for_a_model_with_a_period(tmp_path, capsys):
+    code, _, err = run(["simulate", "absorber", "--samples", "10", "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    assert "--samples is for models without a forcing period; model `absorber` has one" in err

@@ -31,6 +31,7 @@ from ..core.errors import OutputError
 from ..core.files import os_error_text
 from ..core.options import ContinuationOptions
 from ..engine.simulate import initial_state
+from ..integrators.auto import resolve
 from ..integrators.options import SolverOptions
 from ..integrators.registry import METHODS, NAMES
 from ..model.plot_hints import plot_hints
@@ -195,13 +196,19 @@ def add_work_limits(p: argparse.ArgumentParser) -> None:
         "--integrator",
         choices=NAMES,
         default="ida",
-        help="ida (default, any model) or exact (matrix exponentials: models affine in the state, "
-        "forced by harmonics of one base frequency)",
+        help="ida (default, any model), exact (matrix exponentials: models affine in the state, "
+        "forced by harmonics of one base frequency) or auto (exact where the model allows it, else ida; "
+        "the choice and why are printed)",
     )
 
 
 def check_integrator(system: HybridSystem, params: dict[str, float], options: SolverOptions) -> None:
-    """Refuse, before any run, a model the chosen method cannot take (NotAffineError, exit 2)."""
+    """Refuse, before any run, a model the chosen method cannot take (NotAffineError, exit 2); for
+    ``--integrator auto``, say which method it takes for the model and why (the library's entry
+    points make the same choice)."""
+    options, choice = resolve(options, system, params)
+    if choice is not None:
+        info(f"integrator auto: {choice.describe()}")
     options.method.check_model(system, params)
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import time
 
+import numpy as np
+
 from ..core.budget import time_limit
 from ..core.plain import plain_data
 from ..core.progress import ProgressBar
@@ -66,6 +68,14 @@ def register(sub) -> None:
         default=100,
         help="output samples per period (default 100, at most 100000)",
     )
+    p.add_argument(
+        "--samples",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="models without a period: N output samples evenly spaced over the run, the integrator "
+        "going from one to the next in one call (default: every internal step is a sample)",
+    )
     p.add_argument("--out", default=None, help=OUT_HELP)
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -111,6 +121,16 @@ def cmd_simulate(args) -> int:
     out = output_dir(system, args)
     bar = ProgressBar(f"simulating {system.name}", enabled=args.progress)
     kwargs = {"samples_per_period": spp, "include_events": True} if period else {}
+    if args.samples is not None:
+        if period:
+            raise UsageError(
+                f"--samples is for models without a forcing period; model `{system.name}` has one: "
+                "use --samples-per-period"
+            )
+        if not 2 <= args.samples <= MAX_STREAMED_SAMPLES:
+            raise UsageError(f"--samples must lie in [2, {MAX_STREAMED_SAMPLES}], got {args.samples}")
+        # (issue 34: IDA steps between the samples inside SUNDIALS, no Python call per internal step)
+        kwargs = {"t_eval": np.linspace(0.0, t_end, args.samples), "include_events": True}
     # Samples and switches go to the CSV files as the run goes on; memory holds the figure's window
     # (the last periods; for a model without a period, sampled on every step, the last PLOT_SAMPLES
     # samples) and a min/max envelope of the displacements for its whole-run panel: memory is

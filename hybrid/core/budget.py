@@ -164,6 +164,18 @@ class Budget:
         frac = (t - self.t0) / (self.t1 - self.t0) if self.t1 > self.t0 else 1.0
         return f"at t={t!r} ({100.0 * frac:.3g} % of the time span)"
 
+    def overdue(self, used: int) -> bool:
+        """Whether :meth:`check` would stop a run for its steps or its time now (``used`` residual
+        evaluations; the rate projection aside): for a watch inside a long call into the solver."""
+        return used >= self.max_steps or _clock() >= self.deadline
+
+    @property
+    def call_allowance(self) -> int:
+        """Residual evaluations one call into the solver may take before :meth:`check` is due again
+        (where the rate projection starts to apply: ``max(PROJECTION_AFTER * max_steps,
+        PROJECTION_MIN)``)."""
+        return int(max(PROJECTION_AFTER * self.max_steps, PROJECTION_MIN))
+
     def check(self, used: int, t: float, where: str = "") -> None:
         """Raise :class:`BudgetExceeded` if ``used`` residual evaluations or the time exhaust the budget.
 

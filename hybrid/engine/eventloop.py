@@ -44,6 +44,13 @@ __all__ = ["step_bound"]
 #: First step of the restart after IDA failed on its first step, as a fraction of the step bound.
 CAREFUL_FIRST_STEP = 1e-6
 
+#: Output times handed to IDA in one call (:meth:`Run.segment_outputs`; fewer for a large state, whose
+#: rows IDA's wrapper allocates at once: at most OUTPUT_VALUES_PER_CALL values). A segment whose
+#: samples left to the end of the run are more goes step by step (:meth:`Run.segment`): a call that
+#: ended before the end of the run would start IDA again, and a run of other steps has another error.
+OUTPUTS_PER_CALL = 8192
+OUTPUT_VALUES_PER_CALL = 2**19
+
 
 class _CallbackFailed(Exception):
     """The user's progress callback raised (re-raised unchanged by :func:`simulate`)."""
@@ -110,6 +117,7 @@ class Run:
         # together at one instant)
         self.recent = deque(maxlen=options.zeno_count * (1 + len(cs.system.components)))
         self.nfev = self.njev = self.n_steps = 0
+        self.stepwise = False  # True once a call from output to output outgrew its allowance (watch)
         self._next_progress = 0.0
         self.current: tuple[float, np.ndarray, int] = (t0, np.zeros(len(cs.names)), 0)
         self.unresolved = 0  # consecutive switches whose guard never left its noise band
@@ -149,8 +157,10 @@ class Run:
         for ev in self.events:
             self.rec.add_event(ev)
         self.events.clear()
+        cm = self.cs.modes[mode]
         try:
-            self.rec.add(t, self.project(self.cs.modes[mode], t, y), mode)
+            # (the recorder copies y: no copy here where there is no slave variable to re-solve)
+            self.rec.add(t, self.project(cm, t, y) if cm.alg_idx.size else y, mode)
         except SampleCapReached as exc:
             raise _Stop(Status.MAX_SAMPLES, str(exc)) from None
 
@@ -446,9 +456,10 @@ class Run:
             self.record(ts, ys, m)
             self.next_sample += 1
 
-    def segment(self, t, y, yp, mode, disarmed, careful: bool = False):
+    def segment(self, t, y, yp, mode, disarmed, careful: bool = False, stepwise: bool = False):
         """Integrate in ``mode`` from ``(t, y)`` up to the next switch or the end (``careful``:
-        with a small first step, after IDA failed on its own first step)."""
+        with a small first step, after IDA failed on its own first step; ``stepwise``: with a call
+        into the solver per output or step, not :meth:`segment_outputs`)."""
         cm = self.cs.modes[mode]
         solver = self.solver(mode, careful)
         solver.armed[:] = True
@@ -467,6 +478,11 @@ class Run:
         # A solver with exact dense output (the exact integrator) is not stepped to each sample:
         # the samples of a step are taken from its flow afterwards, all at once.
         dense = getattr(solver, "dense", False)
+        stepwise = stepwise or careful or self.stepwise
+        if not (self.record_steps or disarmed or dense or stepwise or self.samples is None) and hasattr(
+            solver, "advance"
+        ):
+            return self.segment_outputs(solver, cm, t, y, yp, mode)
         many = (lambda ts: (solver.interpolate_many(ts), mode)) if dense else None
         try:
             while True:
@@ -501,7 +517,7 @@ class Run:
                         + f": {explain(r.status, r.message)}"
                         + self.advice(r.status),
                     )
-                if not np.all(np.isfinite(r.y)):
+                if not np.isfinite(r.y).all():  # (the method, not np.all: a step of IDA is ~20 us)
                     raise _Stop(
                         Status.SOLVER_FAILED, f"state became non-finite at t={r.t!r} in mode `{cm.name}`"
                     )
@@ -543,22 +559,91 @@ class Run:
                         r.t, lambda s: (solver.interpolate(s)[0], mode), inclusive=False, many=many
                     )
                     return self.switch(cm, fired, r.t, r.y)
-                self.emit_samples_upto(
-                    r.t,
-                    lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode),
-                    inclusive=True,
-                    many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode))
-                    if dense
-                    else None,
-                )
-                if self.record_steps:
+                if self.samples is not None:
+                    self.emit_samples_upto(
+                        r.t,
+                        lambda s, r=r: (r.y if s == r.t else solver.interpolate(s)[0], mode),
+                        inclusive=True,
+                        many=(lambda ts, r=r: (_ending(solver.interpolate_many(ts), ts, r), mode))
+                        if dense
+                        else None,
+                    )
+                else:  # every step is a sample
                     self.record(r.t, r.y, mode)
-                self.report(r.t)
+                if self.progress is not None:
+                    self.report(r.t)
                 if r.status == TSTOP or r.t >= self.t1:
                     return self.t1, r.y, mode, r.yp, {}
         finally:
             self.nfev += solver.nfev_last
             self.njev += solver.njev_last
+
+    def upcoming(self, t: float) -> np.ndarray | None:
+        """The output times of a solver's call from ``t`` to the end of the run: the samples after
+        ``t``, then the end if they do not reach it; None where they are more than one call takes
+        (:data:`OUTPUTS_PER_CALL`, :data:`OUTPUT_VALUES_PER_CALL` values) or fewer than two."""
+        s = self.samples
+        per_call = min(OUTPUTS_PER_CALL, OUTPUT_VALUES_PER_CALL // max(len(self.cs.names), 1))
+        if s.size - self.next_sample > per_call:
+            return None
+        ts = (
+            s.times(self.next_sample, s.size)
+            if isinstance(s, SampleGrid)
+            else np.asarray(s[self.next_sample :])
+        )
+        ts = ts[ts > t]
+        if ts.size == 0 or ts[-1] < self.t1:
+            ts = np.append(ts, self.t1)
+        return ts if ts.size >= 2 else None
+
+    def watch(self, calls: int) -> bool:
+        """Whether a call into the solver from output to output must stop (:meth:`segment_outputs`):
+        it took more than the budget's allowance of one call, or the run's budget is spent."""
+        return calls > self.budget.call_allowance or self.budget.overdue(self.nfev + calls)
+
+    def segment_outputs(self, solver, cm: CompiledMode, t, y, yp, mode: int):
+        """:meth:`segment` where IDA goes from output to output itself: the samples left and the end
+        of the run in one call (issue 34), no Python call per sample or internal step.
+
+        The same run as :meth:`segment`'s to the last bit: IDA's stop time is the end of the run as
+        there, and the first output the same (IDA's first step is 0.001 x the distance to it). Where
+        :meth:`upcoming` has no call (more samples left than a call takes, or a lone output: one call
+        of step() anyway), where anything but a crossing or the end comes back (IDA's failures, its
+        steps per output interval spent, a non-finite state) and where the call outgrows the budget's
+        allowance (:meth:`watch`: then for the rest of the run, its budget checked after each step), the
+        segment is made by :meth:`segment` (``stepwise``) from its start, which says what happened
+        as it does without this path."""
+        ts = self.upcoming(t)
+        if ts is None:
+            return self.segment(t, y, yp, mode, {}, stepwise=True)
+        got = solver.advance(ts, watch=self.watch)
+        if got is None:  # the call outgrew its allowance: step by step, for the rest of the run
+            self.stepwise = True
+            return self.segment(t, y, yp, mode, {}, stepwise=True)
+        rows_t, rows_y, r = got
+        if (
+            (r.status < 0 or (r.status != ROOT and r.t < self.t1))
+            or not np.isfinite(r.y).all()
+            or (rows_y.size and not np.isfinite(rows_y).all())
+        ):
+            return self.segment(t, y, yp, mode, {}, stepwise=True)
+        self.n_steps += 1
+        self.nfev += solver.nfev_last
+        self.njev += solver.njev_last
+        self.current = (r.t, r.y, mode)
+        self.budget.check(self.nfev, r.t, f" in mode `{cm.name}`")
+
+        def many(q):
+            return rows_y[np.searchsorted(rows_t, q)], mode
+
+        if r.status == ROOT and r.fired:
+            self.emit_samples_upto(r.t, None, inclusive=False, many=many)
+            self.unresolved = 0
+            return self.switch(cm, r.fired[0], r.t, r.y)
+        self.emit_samples_upto(r.t, None, inclusive=True, many=many)
+        if self.progress is not None:
+            self.report(r.t)
+        return self.t1, r.y, mode, r.yp, {}
 
     def switch(self, cm: CompiledMode, k: int, t: float, y_minus: np.ndarray):
         g = cm.guards[k]

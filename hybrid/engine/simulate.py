@@ -17,6 +17,7 @@ from ..core.callbacks import Progress
 from ..core.errors import AlgebraicSolveError, InputError, InputTypeError
 from ..core.notices import collected
 from ..core.threads import with_blas_threads
+from ..integrators.auto import resolve
 from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem
 from ..model.system import HybridSystem
@@ -192,6 +193,7 @@ def simulate(
         )
     system.mode(mode0)
     cs = CompiledSystem(system, params)
+    options, _ = resolve(options, system, params, cs)  # Auto(): the method the model allows
     options.method.check(cs)  # a model the method cannot take is refused before the run
     y0 = initial_state(system, x0, mode0)
     samples = sample_times(t_eval, samples_per_period, cs.period, t0, t1)

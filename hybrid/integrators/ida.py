@@ -93,6 +93,15 @@ def _call(ida, t: float, method: str, tstop: float | None):
             return None, (int(flag), f"IDA returned flag {flag}, unknown to scikit-sundae{detail}"), kept.text
 
 
+#: Residual evaluations between two calls of the watch of :meth:`ModeSolver.advance`.
+WATCH_EVERY = 256
+
+
+class Overrun(Exception):
+    """Raised inside IDA's call by the residual function where :meth:`ModeSolver.advance`'s watch
+    says stop (caught there: the call returns None)."""
+
+
 class ModeSolver:
     """IDA integrator for one compiled mode.
 
@@ -142,12 +151,30 @@ class ModeSolver:
         if not cj_at.any():
             cj_at = None
 
+        # The watch of an :meth:`advance` call: [residual calls so far, its function or None]
+        self._watch = watch = [0, None]
+
         def resfn(t, y, yp, res):
             res[:] = res_fn([t, *y.tolist(), *yp.tolist()])
+            if watch[1] is not None:
+                watch[0] += 1
+                if watch[0] % WATCH_EVERY == 0 and watch[1](watch[0]):
+                    raise Overrun  # (out of IDA's call: scikit-sundae re-raises it)
+
+        # The constant entries are written once into scikit-sundae's Jacobian buffer (the same array
+        # at every call, read, never written, by scikit-sundae): a call writes the diagonal and the
+        # varying entries only, O(n) instead of O(n^2) (a chain of 256 blocks: n = 770).
+        n = mode.n
+        diag = np.arange(n) * (n + 1)
+        base_diag = np.diag(base).copy()
+        is_diff = mode.is_diff.astype(float)
+        filled: list = [None]
 
         def jacfn(t, y, yp, res, cj, JJ):
-            np.multiply(cj_mask, cj, out=JJ)
-            JJ += base
+            if filled[0] is not JJ:
+                JJ[...] = base
+                filled[0] = JJ
+            np.put(JJ, diag, base_diag + cj * is_diff)
             if jac_fn is not None:
                 v = jac_fn([t, *y.tolist()])
                 np.put(JJ, flat_at, v if cj_at is None else np.asarray(v, dtype=float) + cj * cj_at)
@@ -167,13 +194,17 @@ class ModeSolver:
         if mode.alg_idx.size:
             opts["algebraic_idx"] = mode.alg_idx.tolist()
         if ng:
-            armed, safe, gfn = self.armed, self.safe, mode.guards_function
-            self._all_armed = all_armed = [True]  # armed.all(), updated at every call into IDA
+            gfn = mode.guards_function
+            # The disarmed guards and their safe values, refreshed at every call into IDA (the caller
+            # (dis)arms between calls only): (indices, values), or None where all are armed.
+            self._disarmed = disarmed = [None]
+            self._armed_key = self.armed.tobytes() + self.safe.tobytes()
 
             def eventsfn(t, y, yp, out):
                 out[:] = gfn([t, *y.tolist()])  # all guards in one generated function
-                if not all_armed[0]:
-                    out[~armed] = safe[~armed]
+                d = disarmed[0]
+                if d is not None:
+                    out[d[0]] = d[1]
 
             eventsfn.terminal = [True] * ng
             eventsfn.direction = [int(d) for d in mode.guard_directions]
@@ -184,11 +215,24 @@ class ModeSolver:
             self._events = None
         self._ida = _ida(resfn, opts)
 
+    def _arm(self) -> None:
+        """Hand the events function the guards disarmed now (``armed``, ``safe``; compared as bytes:
+        this runs before every call into IDA, once per internal step in one-step mode)."""
+        key = self.armed.tobytes() + self.safe.tobytes()
+        if key == self._armed_key:
+            return
+        self._armed_key = key
+        if self.armed.all():
+            self._disarmed[0] = None
+        else:
+            off = np.flatnonzero(~self.armed)
+            self._disarmed[0] = (off, self.safe[off].copy())
+
     def start(self, t: float, y: np.ndarray, yp: np.ndarray) -> None:
         """(Re)initialise at a consistent point ``(t, y, y')``."""
         self._ida.init_step(float(t), np.asarray(y, dtype=float), np.asarray(yp, dtype=float))
         if self._events is not None:
-            self._all_armed[0] = bool(self.armed.all())
+            self._arm()
         self.nfev_last = self.njev_last = 0
         self._t = float(t)
         self._y, self._yp = np.array(y, dtype=float), np.array(yp, dtype=float)
@@ -207,7 +251,7 @@ class ModeSolver:
     def step(self, tout: float, tstop: float, *, one_step: bool) -> StepResult:
         """Advance towards ``tout`` (one internal step if ``one_step``), never past ``tstop``."""
         if self._events is not None:
-            self._all_armed[0] = bool(self.armed.all())  # the caller (dis)arms between calls only
+            self._arm()  # the caller (dis)arms between calls only
         r, bad, words = _call(self._ida, float(tout), "onestep" if one_step else "normal", float(tstop))
         if bad is not None:
             self._clear_events()
@@ -224,10 +268,68 @@ class ModeSolver:
             self._t, self._y, self._yp = res.t, res.y, res.yp
         return res
 
+    def advance(self, ts: np.ndarray, watch=None) -> tuple[np.ndarray, np.ndarray, StepResult] | None:
+        """From the point of the last :meth:`start` through the output times ``ts`` (increasing,
+        after it; at least two) in one call into IDA, never past ``ts[-1]`` (IDA's stop time, as
+        :meth:`step`'s ``tstop``), stopping at a crossing.
+
+        Returns the times and states of the outputs reached (rows) and the end (a :class:`StepResult`:
+        at ``ts[-1]``, at a crossing, or where IDA failed). IDA loops over the outputs itself: no
+        Python call per output or internal step (issue 34). Its internal steps are those of
+        :meth:`step` in normal mode towards each output with ``tstop = ts[-1]``: the same run to the
+        last bit (the outputs are interpolated, they do not cut steps). Afterwards the solver must be
+        started again (:meth:`start`) before :meth:`step` or :meth:`interpolate`.
+
+        ``watch(calls)``, if given, is called every :data:`WATCH_EVERY` residual evaluations of the
+        call with their number; where it returns True the call is abandoned and None returned (the
+        caller goes on another way, e.g. with :meth:`step`, from the point of :meth:`start`).
+        """
+        if self._events is not None:
+            self._arm()
+        tspan = np.concatenate([[self._t], np.asarray(ts, dtype=float)])
+        self._watch[:] = [0, watch]
+        try:
+            with kept_prints() as kept:
+                try:
+                    r = self._ida.solve(tspan, self._y, self._yp)
+                except KeyError as exc:
+                    r = None
+                    flag = exc.args[0] if exc.args and isinstance(exc.args[0], int) else UNKNOWN_FLAG
+        except Overrun:
+            self._clear_events()
+            return None
+        finally:
+            self._watch[1] = None
+        words = kept.text
+        if r is None:
+            detail = f": {words}" if words else ""
+            self._clear_events()
+            end = StepResult(
+                int(flag),
+                self._t,
+                self._y,
+                self._yp,
+                (),
+                f"IDA returned flag {flag}, unknown to scikit-sundae{detail}",
+            )
+            return np.zeros(0), np.zeros((0, self._y.size)), end
+        fired: tuple[int, ...] = ()
+        if r.status == ROOT and r.i_events is not None:
+            fired = tuple(int(k) for k in np.flatnonzero(r.i_events[-1]))
+        self._clear_events()
+        self.nfev_last, self.njev_last = int(r.nfev), int(r.njev)
+        msg = str(r.message) + (f" {words}" if r.status < 0 and words else "")
+        t, y, yp = np.asarray(r.t), np.asarray(r.y), np.asarray(r.yp)
+        end = StepResult(int(r.status), float(t[-1]), y[-1], yp[-1], fired, msg)
+        if end.status >= 0 or float(t[-1]) > self._t:
+            self._t, self._y, self._yp = end.t, end.y, end.yp
+        n = t.size - 1 if (end.status == ROOT or end.status < 0) else t.size
+        return t[1:n], y[1:n], end
+
     def interpolate(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """State at ``t`` inside the last internal step (no advance)."""
         if self._events is not None:
-            self._all_armed[0] = bool(self.armed.all())
+            self._arm()
         r, bad, _ = _call(self._ida, float(t), "normal", None)
         self._clear_events()
         if bad is not None or r.status < 0:
@@ -652,8 +754,21 @@ class IDA(Method):
         """The guards' series from the flow's Taylor series of the mode's equations (computed once)."""
         cm = cs.modes[mode]
         flow: list[np.ndarray] = []
+        parts: list[tuple[frozenset, np.ndarray]] = []  # series over cones, reused by guards inside one
+        jac: list[np.ndarray] = []  # dF/dy at (t, y), shared by the cones
 
         def series(k: int) -> np.ndarray:
+            # Only the variables the guard's series depends on where they are few (a guard of one
+            # block of a chain), else the whole flow's series, once for all guards (issue 34)
+            cone = cm.taylor_cone(cm.guards[k].expr, order)
+            if 2 * len(cone) < cm.n:
+                X = next((X for c, X in parts if cone <= c), None)
+                if X is None:
+                    if not jac and cm.alg_idx.size:
+                        jac.append(cm.dFdy(t, y))
+                    X = cm.taylor(t, y, order, rows=cone, dFdy=jac[0] if jac else None)
+                    parts.append((cone, X))
+                return cm.guard_series(k, t, y, order, X)
             if not flow:
                 flow.append(cm.taylor(t, y, order))
             return cm.guard_series(k, t, y, order, flow[0])

@@ -5,7 +5,7 @@ serves where only text is at hand (the command line, a job description, a result
 
 >>> from hybrid.integrators.registry import method_named, NAMES
 >>> NAMES
-('ida', 'exact')
+('ida', 'exact', 'auto')
 >>> method_named("ida", rtol=1e-9)
 IDA(rtol=1e-09, atol=1e-10, atol_default=1e-10, max_num_steps=50000, guard_noise=10.0)
 >>> method_named("exact").noise_rtol
@@ -15,6 +15,7 @@ IDA(rtol=1e-09, atol=1e-10, atol_default=1e-10, max_num_steps=50000, guard_noise
 from __future__ import annotations
 
 from ..core.errors import InputError
+from .auto import Auto
 from .base import Method
 from .exact import Exact
 from .ida import IDA
@@ -22,7 +23,7 @@ from .ida import IDA
 __all__ = ["method_named", "NAMES", "METHODS"]
 
 #: The methods' classes by name, the default first.
-METHODS: dict[str, type[Method]] = {cls.name: cls for cls in (IDA, Exact)}
+METHODS: dict[str, type[Method]] = {cls.name: cls for cls in (IDA, Exact, Auto)}
 
 #: The methods' names, the default first.
 NAMES: tuple[str, ...] = tuple(METHODS)

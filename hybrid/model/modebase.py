@@ -11,10 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.cache import LRUCache
 from ..core.errors import AlgebraicSolveError
 from .taylor import taylor_eval, taylor_eval_many
 
 __all__ = ["ModeMethods"]
+
+
+#: Guard cones kept per mode (:meth:`ModeMethods.taylor_cone`; a few per guard and order).
+CONES_KEPT = 256
 
 
 class ModeMethods:
@@ -62,6 +67,11 @@ class ModeMethods:
         :meth:`hybrid.model.compiled.CompiledSystem.set_runtime` as the mode's own do.
     """
 
+    #: The state variables' positions by name, made on first use (:meth:`_env`).
+    _name_index: dict[str, int] | None = None
+    #: The guards' Taylor cones by (expression, order), made on first use (:meth:`taylor_cone`).
+    _cones: LRUCache | None = None
+
     def outputs_at(self, t: np.ndarray, Y: np.ndarray) -> list[np.ndarray] | None:
         """The system's outputs at samples ``(t[i], Y[i])`` of this mode, one array per output (in
         the order of ``system.outputs``), evaluated elementwise at once; None where a value is not
@@ -73,8 +83,16 @@ class ModeMethods:
         out = [np.broadcast_to(np.asarray(v, dtype=float), t.shape) for v in vals]
         return out if all(np.all(np.isfinite(v)) for v in out) else None
 
-    def _env(self, tj: np.ndarray, X: np.ndarray) -> dict:
-        env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+    def _env(self, tj: np.ndarray, X: np.ndarray, only=None) -> dict:
+        """Series of ``t`` and of the variables (rows of ``X``; ``only``: of these names only, for
+        expressions that read no other) and the run-time parameters, by name."""
+        if only is None:
+            env = {"t": tj, **{nm: X[i] for i, nm in enumerate(self.names)}}
+        else:
+            index = self._name_index
+            if index is None:
+                index = self._name_index = {nm: i for i, nm in enumerate(self.names)}
+            env = {"t": tj, **{nm: X[index[nm]] for nm in only if nm in index}}
         for p in self._runtime:
             env[p] = self.parameter_namespace[f"_p_{p}"]
         return env
@@ -209,11 +227,66 @@ class ModeMethods:
         return grad, g.grad_t(v)
 
     # ------------------------------------------------------------------
-    def taylor(self, t: float, y: np.ndarray, order: int) -> np.ndarray:
+    def taylor_cone(self, expr, order: int) -> frozenset[int]:
+        """The variables whose series the series of ``expr`` to ``order`` depends on: those of
+        ``expr``, then those of the derivatives of the differential ones among them, ``order`` times
+        (a slave variable brings the variables of its algebraic equation at once: its order-k
+        coefficient follows theirs). See :meth:`taylor` (``rows``). Kept per expression and order."""
+        kept = self._cones
+        if kept is None:
+            kept = self._cones = LRUCache(CONES_KEPT)
+        hit = kept.get((expr, order))
+        if hit is not None:
+            return hit
+        index = {nm: i for i, nm in enumerate(self.names[: self.n])}
+        f, g = self.f_expr, self.g_expr
+
+        def deps(e) -> set[int]:
+            return {index[s] for s in e.free if s in index}
+
+        def with_slaves(new: set[int], seen: set[int]) -> set[int]:
+            stack = [i for i in new if i in g]
+            while stack:
+                for j in deps(g[stack.pop()]) - seen - new:
+                    new.add(j)
+                    if j in g:
+                        stack.append(j)
+            return new
+
+        level = with_slaves(deps(expr), set())
+        cone = set(level)
+        for _ in range(order):
+            nxt: set[int] = set()
+            for i in level:
+                if i in f:
+                    nxt |= deps(f[i])
+            level = with_slaves(nxt - cone, cone)
+            if not level:
+                break
+            cone |= level
+        cone = frozenset(cone)
+        kept.put((expr, order), cone)
+        return cone
+
+    def taylor(
+        self,
+        t: float,
+        y: np.ndarray,
+        order: int,
+        rows: frozenset[int] | set[int] | None = None,
+        dFdy: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Taylor coefficients of this mode's flow through ``(t, y)``.
 
         Differential variables: ``x_{k+1} = f(x)_k / (k+1)``; slave variables:
         the order-``k`` coefficient of ``g(x, z) = 0`` is linear in ``z_k``.
+
+        ``rows`` (e.g. :meth:`taylor_cone` of a guard): only these variables' series are computed;
+        the others keep their value and no higher coefficient. A variable reached after ``d``
+        derivatives in the cone then has its first ``order - d`` coefficients right, so the series
+        of the expression the cone was made for is the full one to ``order`` (issue 34: a guard of
+        one block of a chain of 256 needs the blocks within ``order`` springs of it, not all).
+        ``dFdy``: :meth:`dFdy` at ``(t, y)`` if at hand (shared by the cones of one point).
 
         Returns
         -------
@@ -227,13 +300,17 @@ class ModeMethods:
         if order >= 1:
             tj[1] = 1.0
         a = self.alg_idx
+        if rows is not None:
+            a = np.array([i for i in a.tolist() if i in rows], dtype=int)
         Jzz = None
         if a.size:
-            Jzz = self.dFdy(t, y)[np.ix_(a, a)]
-        f_rows, f_roots = list(self.f_expr), tuple(self.f_expr.values())
+            Jzz = (self.dFdy(t, y) if dFdy is None else dFdy)[np.ix_(a, a)]
+        f_rows = list(self.f_expr) if rows is None else [i for i in self.f_expr if i in rows]
+        f_roots = tuple(self.f_expr[i] for i in f_rows)
         g_roots = tuple(self.g_expr[i] for i in a)
+        only = None if rows is None else frozenset().union(*(e.free for e in (*f_roots, *g_roots)))
+        env = self._env(tj, X, only)  # views of the rows of X: they see the coefficients set below
         for k in range(order):
-            env = self._env(tj, X)  # views of the rows of X: they see the coefficients set below
             series = taylor_eval_many(f_roots, env)  # shared sub-expressions once
             for i, c in zip(f_rows, series, strict=True):
                 X[i, k + 1] = c[k] / (k + 1)
@@ -255,4 +332,5 @@ class ModeMethods:
         tj[0] = t
         if order >= 1:
             tj[1] = 1.0
-        return taylor_eval(self.guards[k].expr, self._env(tj, X))
+        expr = self.guards[k].expr
+        return taylor_eval(expr, self._env(tj, X, expr.free))

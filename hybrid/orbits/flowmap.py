@@ -26,6 +26,7 @@ from ..core.errors import BudgetExceeded, GrazingSwitchError, ModelError, Simula
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import Status, Trajectory, TransitionRecord
 from ..engine.variational import Sensitivity, guard_index, saltation
+from ..integrators.auto import resolve
 from ..integrators.options import SolverOptions
 from ..model.compiled import CompiledSystem, lend
 from ..model.system import HybridSystem
@@ -100,6 +101,7 @@ class FlowMap:
         self.system = system
         self.free = free
         self.params = system.parameter_values(params)
+        options, self.choice = resolve(options, system, self.params)  # Auto(): the method the model allows
         self.options = replace(options, max_step=options.max_step or float(time_scale) / 16.0)
         self.method = options.method
         if self.method.runtime_parameters:

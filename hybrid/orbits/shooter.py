@@ -17,6 +17,7 @@ from ..core.errors import BudgetExceeded, ModelError, ParameterOutOfDomain
 from ..engine.simulate import run_compiled
 from ..engine.trajectory import DeferredTrajectory, Status, Trajectory
 from ..engine.variational import Sensitivity
+from ..integrators.auto import resolve
 from ..integrators.options import SolverOptions
 from ..model.codegen import compile_scalar
 from ..model.compiled import CompiledSystem, lend
@@ -57,6 +58,7 @@ class Shooter:
         periods: int = 1,
     ):
         self.system = system
+        options, self.choice = resolve(options, system, params)  # Auto(): the method the model allows
         self.options = options
         self.periods = int(periods)
         self.method = options.method
