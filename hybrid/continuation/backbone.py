@@ -133,6 +133,12 @@ class _Problem:
         cm = fm.mode(mode)
         s = fm.sens.s
         g = np.zeros(s.size)
+        row = cm.dFdy(0.0, y)[self.iq] if cm.is_diff[self.iq] else None
+        if row is not None and all(cm.is_diff[i] for i in np.flatnonzero(row)):
+            # q' depends on differential variables only: its row of the mode's Jacobian (-f_y)
+            inside = s < len(self.names)
+            g[inside] = -row[s[inside]]
+            return g
         base = fm.field(mode, y)[self.iq]
         scale = max(float(np.max(np.abs(y))), 1e-300)
         for j, i in enumerate(s):
@@ -270,12 +276,6 @@ def _harmonics(orbit: PeriodicOrbit, t_max: float, names) -> dict:
         s[0] = 0.0
         out[n] = np.column_stack([c, s])
     return out
-
-
-def _visited_local(system: HybridSystem, orbit: PeriodicOrbit) -> set:
-    return {m for m, f in orbit.local_fractions.items() if f > 0.0} | set(
-        p for m in orbit.mode_sequence for p in system.local_modes_of(m)
-    )
 
 
 @with_blas_threads
@@ -549,7 +549,7 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
         targets = [x for x in targets if x > u[-1] + 1e-14]
     ds = st.ds
     uc = _restart(prob, u, pt.orbit)
-    t = _carry(prob, uc, t, J)
+    t = _carry(prob, uc, t)
     u = uc
     n_steps = 0
     while targets and n_steps < st.max_points:
@@ -583,7 +583,7 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
         if un[-1] > log_hi + 1e-14 and not targets:
             break
         uc = _restart(prob, un, pt.orbit)
-        t = _carry(prob, uc, tn, Jn)
+        t = _carry(prob, uc, tn)
         u = uc
     kept.sort(key=lambda p: p.amplitude) if _monotone(chain) else None
     bb.points = kept
@@ -603,81 +603,70 @@ def _monotone(chain) -> bool:
     return all(b >= x for x, b in zip(a, a[1:], strict=False))
 
 
-def _carry(prob: _Problem, u, t_old, J_old):
+def _carry(prob: _Problem, u, t_old):
     """The tangent at ``u`` (new start coordinates), with the sense of ``t_old`` in the unknowns
     that do not depend on the start (period, parameter, amplitude)."""
+    sel = [-4, -3, -1]
+    prev = np.zeros(u.size)
+    prev[sel] = t_old[sel]
+    if not np.any(prev):
+        prev[-1] = 1.0
     try:
         _, J, _ = prob.evaluate(u)
     except (RuntimeError, ValueError, GrazingSwitchError, ZeroDivisionError):
-        return t_old
-    k = np.zeros(u.size)
-    k[-1] = 1.0
-    t = tangent(J, k)
-    sel = [u.size - 4, u.size - 3, u.size - 1]
-    if float(t[sel] @ t_old[sel]) < 0:
-        t = -t
-    return t
+        return prev / np.linalg.norm(prev)
+    return tangent(J, prev)
 
 
 def _events(bb: Backbone, prob: _Problem, chain, st: ContinuationOptions, tol) -> None:
     """The first switch and the all-switched point, each between consecutive points of ``chain``,
-    located by bisection in ``ln a`` where the orbit at the lower end is the reference."""
+    located by bisection in ``ln a`` (each trial corrected from the last one below it)."""
     system = bb.system
     start_local = set(system.local_modes_of(bb.start_mode))
     comps = [c.name for c in system.components]
 
-    def left_start(p):
-        return bool(_visited_local(system, p.orbit) - start_local) or set(p.orbit.mode_sequence) != {
-            bb.start_mode
-        }
+    def local(modes) -> set:
+        return {p for m in modes for p in system.local_modes_of(m)} - start_local
 
-    def all_left(p):
-        vis = _visited_local(system, p.orbit) - start_local
-        return bool(comps) and all(any(m.startswith(f"{c}.") for m in vis) for c in comps)
+    def left_start(modes) -> bool:
+        return set(modes) != {bb.start_mode}
 
-    for kind, test, desc in (
-        ("first-switch", left_start, "the orbit first leaves the start mode"),
-        ("all-switched", all_left, "every component leaves its start local mode in the period"),
-    ):
-        if kind == "all-switched" and not comps:
-            continue
+    def all_left(modes) -> bool:
+        vis = local(modes)
+        return all(any(m.startswith(f"{c}.") for m in vis) for c in comps)
+
+    kinds = [("first-switch", left_start, "the orbit first leaves the start mode")]
+    if comps:
+        kinds.append(("all-switched", all_left, "every component leaves its start local mode in the period"))
+    for kind, test, desc in kinds:
         for a, b in zip(chain, chain[1:], strict=False):
-            if not test(a) and test(b):
-                bb.events.append(_locate(bb, prob, a, b, test, kind, desc, st, tol))
+            if not test(a.orbit.mode_sequence) and test(b.orbit.mode_sequence):
+                bb.events.append(_locate(prob, a, b, test, kind, desc, st, tol))
                 break
 
 
-def _locate(
-    bb, prob: _Problem, a: BackbonePoint, b: BackbonePoint, test, kind, desc, st, tol
-) -> BackboneEvent:
-    lo_p, hi_p = a, b
+def _locate(prob: _Problem, a: BackbonePoint, b: BackbonePoint, test, kind, desc, st, tol) -> BackboneEvent:
     lo, hi = math.log(a.amplitude), math.log(b.amplitude)
-    e_last = None
+    o = a.orbit
+    start = (o.x0, o.mode0, o.period, a.xi, a.t_max)
+    w_hi, d_hi = b.omega, b.damping_ratio
     for _ in range(LOCATE_ITER):
         if hi - lo <= st.locate_tol:
             break
         mid = 0.5 * (lo + hi)
-        prob.set_start(lo_p.orbit.x0, lo_p.orbit.mode0)
-        u0 = prob.pack(prob.y_base, lo_p.orbit.period, lo_p.xi, lo_p.t_max, lo_p.amplitude)
-        u0[-1] = mid
-        e_last = np.zeros(u0.size)
-        e_last[-1] = 1.0
-        got = prob.correct(u0, e_last, mid, tol)
+        y0, mode0, T, xi, t_star = start
+        prob.set_start(y0, mode0)
+        u0 = prob.pack(prob.y_base, T, xi, t_star, math.exp(mid))
+        got = prob.correct(u0, _last(u0.size), mid, tol)
         if got is None:
             break
-        p = _point(prob, got[0], got[2], got[4], st.samples_per_period)
-        if test(p):
-            hi, hi_p = mid, p
+        u, _, (y, ev), _, _ = got
+        modes = {prob.mode} | {e.target for e in ev.events}
+        _, T, xi, t_star, _ = prob.unpack(u)
+        if test(modes):
+            hi, w_hi, d_hi = mid, 2 * math.pi / T, xi * T / (4 * math.pi)
         else:
-            lo, lo_p = mid, p
+            lo, start = mid, (y, prob.mode, T, xi, t_star)
     status = "located" if hi - lo <= st.locate_tol else "bracketed"
     a_lo, a_hi = math.exp(lo), math.exp(hi)
-    return BackboneEvent(
-        kind,
-        0.5 * (a_lo + a_hi),
-        (a_lo, a_hi),
-        status,
-        hi_p.omega,
-        hi_p.damping_ratio,
-        desc,
-    )
+    return BackboneEvent(kind, 0.5 * (a_lo + a_hi), (a_lo, a_hi), status, w_hi, d_hi, desc)

@@ -209,3 +209,61 @@ def test_backbone_bad_input(tmp_path):
     forced = hybrid_models.iwan()
     with pytest.raises(hybrid.ModelError, match="forcing period"):
         hybrid.backbone(forced, forced.preset("standard"), coordinate="x", amplitudes=[1.0])
+
+
+def _iwan(n: int):
+    """models/iwan.toml with ``n`` elements, slip displacements R_i N/K from 0.1 to 1 m (as
+    benchmarks/iwan_masing.py), as its EPMC system."""
+    import tomllib
+
+    data = tomllib.loads((MODELS / "iwan.toml").read_text())
+    data["cells"]["jenkins"]["count"] = n
+    data["presets"]["standard"]["jenkins"]["R"] = {"linear": [0.1 / n, 1.0 / n]}
+    system = hybrid_models.epmc_system(data)
+    return system, system.preset("standard")
+
+
+def masing(X: float, R: np.ndarray, n: int, K: float = 1.0) -> float:
+    """Masing's rule: the energy the joint dissipates per period at amplitude X [J]."""
+    return float(np.sum(4 * R * np.clip(X - R * n / K, 0.0, None)))
+
+
+@pytest.mark.slow
+def test_iwan_dissipation_follows_masing():
+    # issue 31 (must show, with N = 10 here; benchmarks/backbones.py runs the file's 50): the
+    # energy dissipated per period on the backbone is Masing's sum_i 4 R_i (X - R_i N/K); first
+    # slip at the smallest R_i N/K = 0.1, every element slipping from the largest, 1.0
+    n = 10
+    system, params = _iwan(n)
+    R = np.array([params[f"R_{i}"] for i in range(1, n + 1)])
+    bb = hybrid.backbone(system, params, coordinate="x", amplitudes=[0.35, 1.5], options=EXACT)
+    assert len(bb.points) == 2
+    for p in bb.points:
+        assert p.dissipated == pytest.approx(masing(p.amplitude, R, n), rel=1e-9)
+        assert p.energy_input == pytest.approx(p.dissipated, rel=1e-9)
+    first = next(e for e in bb.events if e.kind == "first-switch")
+    full = next(e for e in bb.events if e.kind == "all-switched")
+    assert first.status == full.status == "located"
+    assert first.interval[0] <= 0.1 <= first.interval[1] and first.interval[1] - first.interval[0] < 1e-8
+    assert full.interval[0] <= 1.0 <= full.interval[1] and full.interval[1] - full.interval[0] < 1e-8
+    # the linear limits: all stuck sqrt((k0 + K)/m), all sliding sqrt(k0/m)
+    assert bb.references == pytest.approx(
+        {"linear: all contacts stuck": math.sqrt(1.5), "linear: all contacts sliding": math.sqrt(0.5)},
+        rel=1e-12,
+    )
+    assert math.sqrt(0.5) < bb.points[-1].omega < bb.points[0].omega < math.sqrt(1.5)
+
+
+def test_the_docs_table_is_the_independent_reference():
+    # docs/backbones.md promises these points of the Jenkins backbone: they are the independent
+    # shooting's (and test_jenkins_backbone_against_independent_shooting ties the library to it)
+    import re
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "backbones.md").read_text()
+    table = text.split("<!-- jenkins-table -->")[1].split("<!-- /jenkins-table -->")[0]
+    rows = re.findall(r"^\| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \|$", table, re.M)
+    assert len(rows) == 3
+    for a, w_doc, D_doc in rows:
+        w, xi, _ = jenkins_epmc(float(a))
+        assert float(w_doc) == pytest.approx(w, rel=1e-9)
+        assert float(D_doc) == pytest.approx(xi / (2 * w), rel=1e-9)
