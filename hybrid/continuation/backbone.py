@@ -47,7 +47,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from ..core.errors import GrazingSwitchError, InputError, InputTypeError, ModelError
+from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ModelError
 from ..core.options import ContinuationOptions, NewtonOptions, reject_keywords
 from ..core.status import BranchStatus
 from ..core.threads import with_blas_threads
@@ -327,7 +327,8 @@ def backbone(
     -------
     Backbone
         ``status`` ``"stopped"`` with ``reason`` ``"no-start"`` or ``"stalled"`` where the curve
-        could not be followed to the end of the range.
+        could not be followed to the end of the range, ``"budget"`` where a run's budget or the
+        computation's deadline (:func:`hybrid.time_limit`) ran out (the points computed before kept).
 
     Raises
     ------
@@ -407,6 +408,13 @@ def backbone(
         try:
             tr = fm.run(prob.y_base, start_mode, T0)
             clean = tr.success and not tr.events
+        except BudgetExceeded as exc:
+            bb.status, bb.reason, bb.message = (
+                BranchStatus.STOPPED,
+                "budget",
+                f"{exc}; before the first point",
+            )
+            return bb
         except (RuntimeError, GrazingSwitchError, ZeroDivisionError, ValueError):
             clean = False
         if clean:
@@ -528,9 +536,28 @@ def _restart(prob: _Problem, u, orbit: PeriodicOrbit):
 
 
 def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: ContinuationOptions, tol):
-    n1 = u0.size
-    e_last = np.zeros(n1)
-    e_last[-1] = 1.0
+    """Follow the curve from the start ``u0``; the points, events and end written into ``bb``."""
+    chain: list[BackbonePoint] = []  # every point computed, in order (for the events)
+    kept: list[BackbonePoint] = []
+    missed: list[float] = []
+    try:
+        _steps(bb, prob, u0, wanted, lo, hi, st, tol, chain, kept, missed)
+    except BudgetExceeded as exc:  # the run's budget or the computation's deadline: keep what is done
+        bb.status, bb.reason = BranchStatus.STOPPED, "budget"
+        bb.message = f"{exc}; stopped after {len(chain)} points"
+    if _monotone(chain):
+        kept.sort(key=lambda p: p.amplitude)
+    bb.points = kept
+    if missed:
+        bb.message = (bb.message + "; " if bb.message else "") + (
+            "no orbit corrected at the amplitude(s) " + ", ".join(f"{a:.8g}" for a in missed)
+        )
+    if bb.reason != "budget":
+        _events(bb, prob, chain, st, tol)
+
+
+def _steps(bb, prob: _Problem, u0, wanted, lo, hi, st: ContinuationOptions, tol, chain, kept, missed) -> None:
+    e_last = _last(u0.size)
     got = prob.correct(u0, e_last, u0[-1], tol)
     if got is None:
         bb.status, bb.reason = BranchStatus.STOPPED, "no-start"
@@ -540,8 +567,7 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
     t = tangent(J, e_last)
     pt = _point(prob, u, info, res, st.samples_per_period)
     log_lo, log_hi = math.log(lo), math.log(hi)
-    chain = [pt]  # every point computed, in order (for the events)
-    kept: list[BackbonePoint] = []
+    chain.append(pt)
     targets = list(np.log(wanted)) if wanted is not None else [log_lo, log_hi]
     targets = [x for x in targets if x >= u[-1] - 1e-14]
     if wanted is None and u[-1] >= log_lo:
@@ -563,7 +589,6 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
                     bb.message = (
                         f"stalled at amplitude {math.exp(u[-1]):.8g}: the corrector failed down to ds_min"
                     )
-                    _events(bb, prob, chain, st, tol)
                     return
         un, Jn, info, iters, res = got
         # the wanted amplitudes crossed by this step: each corrected at exactly its value
@@ -572,6 +597,8 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
             g2 = prob.correct(u + w * (un - u), _last(u.size), x, tol)
             if g2 is not None:
                 kept.append(_point(prob, g2[0], g2[2], g2[4], st.samples_per_period))
+            else:
+                missed.append(math.exp(x))
             targets.remove(x)
         tn = tangent(Jn, t)
         pt = _point(prob, un, info, res, st.samples_per_period)
@@ -585,11 +612,8 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
         uc = _restart(prob, un, pt.orbit)
         t = _carry(prob, uc, tn)
         u = uc
-    kept.sort(key=lambda p: p.amplitude) if _monotone(chain) else None
-    bb.points = kept
     if targets:
         bb.message = f"reached max_points = {st.max_points} at amplitude {math.exp(u[-1]):.8g}"
-    _events(bb, prob, chain, st, tol)
 
 
 def _last(n: int) -> np.ndarray:

@@ -267,3 +267,13 @@ def test_the_docs_table_is_the_independent_reference():
         w, xi, _ = jenkins_epmc(float(a))
         assert float(w_doc) == pytest.approx(w, rel=1e-9)
         assert float(D_doc) == pytest.approx(xi / (2 * w), rel=1e-9)
+
+
+def test_backbone_stops_at_the_deadline_with_what_it_has():
+    # a computation's deadline (hybrid.time_limit) ends the backbone with reason "budget", not an
+    # exception; the points computed before are kept
+    system = hybrid_models.epmc_system(MODELS / "jenkins_oscillator.toml")
+    with hybrid.time_limit(1e-6):
+        bb = hybrid.backbone(system, JENKINS, coordinate="x", amplitudes=[0.2, 5.0], options=EXACT)
+    assert bb.status == "stopped" and bb.reason == "budget"
+    assert "time" in bb.message
