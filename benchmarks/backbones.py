@@ -47,7 +47,7 @@ def single_mode(a: np.ndarray, m: float, k0: float, kt: np.ndarray, Fs: np.ndarr
         keq = k0 + sum(p[0] for p in parts)
         E = sum(p[1] for p in parts)
         om = math.sqrt(keq / m)
-        xi = E / (math.pi * m * om * om * x * x)
+        xi = E / (math.pi * m * om * x * x)
         w.append(om)
         D.append(xi / (2 * om))
     return np.array(w), np.array(D)

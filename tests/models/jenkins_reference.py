@@ -42,14 +42,15 @@ def describing_function(a, m=1.0, k=1.0, kt=1.0, Fs=0.1):
 
     The first harmonic of the element's hysteresis loop at amplitude ``a > Fs/kt``:
     ``k_eq = kt/pi (beta - sin(2 beta)/2)`` with ``cos beta = 1 - 2 Fs/(kt a)``; energy per cycle
-    ``4 Fs (a - Fs/kt)``; ``omega^2 = (k + k_eq)/m``, ``xi m omega^2 pi a^2 = 4 Fs (a - Fs/kt)``.
+    ``4 Fs (a - Fs/kt)``; ``omega^2 = (k + k_eq)/m``, ``xi m omega pi a^2 = 4 Fs (a - Fs/kt)`` (the work of ``xi m v``
+    over a period of ``a cos(omega t)``).
     """
     if a <= Fs / kt:
         return math.sqrt((k + kt) / m), 0.0
     beta = math.acos(1 - 2 * Fs / (kt * a))
     keq = kt / math.pi * (beta - 0.5 * math.sin(2 * beta))
     w = math.sqrt((k + keq) / m)
-    xi = 4 * Fs * (a - Fs / kt) / (math.pi * m * w * w * a * a)
+    xi = 4 * Fs * (a - Fs / kt) / (math.pi * m * w * a * a)
     return w, xi
 
 
