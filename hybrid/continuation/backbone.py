@@ -548,6 +548,14 @@ def _follow(bb: Backbone, prob: _Problem, u0, wanted, lo: float, hi: float, st: 
     if _monotone(chain):
         kept.sort(key=lambda p: p.amplitude)
     bb.points = kept
+    # the amplitude is the maximum tracked from the linear mode's: say so where the orbit's
+    # largest |q| (its refined extremes) lies above it (another, higher local maximum)
+    above = [p.amplitude for p in kept if p.orbit.amplitude[prob.coordinate] > p.amplitude * (1 + 1e-7)]
+    if above:
+        bb.message = (bb.message + "; " if bb.message else "") + (
+            f"at {len(above)} point(s) (amplitude {above[0]:.8g}, ...) the orbit's largest |{prob.coordinate}| "
+            "exceeds the maximum tracked (a minimum deeper than the maximum is high, or another maximum)"
+        )
     if missed:
         bb.message = (bb.message + "; " if bb.message else "") + (
             "no orbit corrected at the amplitude(s) " + ", ".join(f"{a:.8g}" for a in missed)
