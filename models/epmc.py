@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 from hybrid import HybridSystem, ModelError, Variable
@@ -32,6 +32,26 @@ __all__ = ["EPMC_PARAMETER", "epmc", "epmc_network", "epmc_system"]
 
 #: The name of the parameter of the artificial damping [1/s].
 EPMC_PARAMETER = "xi"
+
+
+#: The fields of a Network this transformation covers (a part with a mass of another kind, added to
+#: networks later, must get its own ``xi M v`` term before its backbone is computed).
+_COVERED = {
+    "name",
+    "title",
+    "reference",
+    "masses",
+    "nodes",
+    "elements",
+    "forces",
+    "base",
+    "parameters",
+    "presets",
+    "plot",
+    "orbit",
+    "origins",
+    "cells",
+}
 
 
 def _paren(text: str) -> str:
@@ -61,6 +81,12 @@ def epmc_network(net: Network, parameter: str = EPMC_PARAMETER) -> Network:
     ModelError
         The network already has a parameter, or an item, of a name this adds.
     """
+    extra = [f.name for f in fields(net) if f.name not in _COVERED and getattr(net, f.name)]
+    if extra:
+        raise ModelError(
+            f"network `{net.name}` has {', '.join(extra)}: the EPMC transformation writes + xi m v for point "
+            "masses only, so its backbone would miss the term of those parts' mass matrices; not supported yet"
+        )
     taken = set(net.parameters) | set(net.masses) | set(net.nodes) | {e.name for e in net.elements}
     taken |= {v for _, v, _ in net.masses.values()} | {f.name for f in net.forces}
     added = {parameter} | {_damper_name(x) for x in net.masses}

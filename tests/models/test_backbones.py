@@ -7,8 +7,11 @@ oscillator (tests/models/jenkins_reference.py) and Masing's rule for the Iwan jo
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import re
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +22,8 @@ from jenkins_reference import describing_function, jenkins_epmc
 import hybrid
 import hybrid_models
 from hybrid import IDA, Exact, SolverOptions
+from hybrid_models.epmc import epmc_network
+from hybrid_models.network_read import Network, read_network
 
 MODELS = Path(hybrid_models.__file__).parent
 EXACT = SolverOptions(method=Exact())
@@ -217,8 +222,6 @@ def test_backbone_bad_input(tmp_path):
 def _iwan(n: int):
     """models/iwan.toml with ``n`` elements, slip displacements R_i N/K from 0.1 to 1 m (as
     benchmarks/iwan_masing.py), as its EPMC system."""
-    import tomllib
-
     data = tomllib.loads((MODELS / "iwan.toml").read_text())
     data["cells"]["jenkins"]["count"] = n
     data["presets"]["standard"]["jenkins"]["R"] = {"linear": [0.1 / n, 1.0 / n]}
@@ -260,8 +263,6 @@ def test_iwan_dissipation_follows_masing():
 def test_the_docs_table_is_the_independent_reference():
     # docs/backbones.md promises these points of the Jenkins backbone: they are the independent
     # shooting's (and test_jenkins_backbone_against_independent_shooting ties the library to it)
-    import re
-
     text = (Path(__file__).resolve().parents[2] / "docs" / "backbones.md").read_text()
     table = text.split("<!-- jenkins-table -->")[1].split("<!-- /jenkins-table -->")[0]
     rows = re.findall(r"^\| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \|$", table, re.M)
@@ -280,3 +281,21 @@ def test_backbone_stops_at_the_deadline_with_what_it_has():
         bb = hybrid.backbone(system, JENKINS, coordinate="x", amplitudes=[0.2, 5.0], options=EXACT)
     assert bb.status == "stopped" and bb.reason == "budget"
     assert "time" in bb.message
+
+
+def test_epmc_refuses_a_network_part_it_does_not_cover():
+    # a part of a network with a mass of another kind (e.g. a structure's mass matrix, issue 32)
+    # would miss its + xi M v term: refused by name rather than computed wrong
+    Extended = dataclasses.make_dataclass(
+        "Extended",
+        [("structures", dict, dataclasses.field(default_factory=dict))],
+        bases=(Network,),
+        frozen=True,
+    )
+    net = read_network(tomllib.loads((MODELS / "jenkins_oscillator.toml").read_text()))
+    ext = Extended(**{f.name: getattr(net, f.name) for f in dataclasses.fields(net)}, structures={"beam": 1})
+    with pytest.raises(hybrid.ModelError, match="structures"):
+        epmc_network(ext)
+    assert (
+        epmc_network(Extended(**{f.name: getattr(net, f.name) for f in dataclasses.fields(net)})).forces == ()
+    )
