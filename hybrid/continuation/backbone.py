@@ -47,7 +47,14 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from ..core.errors import BudgetExceeded, GrazingSwitchError, InputError, InputTypeError, ModelError
+from ..core.errors import (
+    BudgetExceeded,
+    GrazingSwitchError,
+    InputError,
+    InputTypeError,
+    ModelError,
+    ParameterOutOfDomain,
+)
 from ..core.options import ContinuationOptions, NewtonOptions, reject_keywords
 from ..core.status import BranchStatus
 from ..core.threads import with_blas_threads
@@ -157,7 +164,7 @@ class _Problem:
         n = self.d.size
         y, T, xi, t_star, a = self.unpack(u)
         if not (T > 0 and 0 < t_star < T):
-            raise ValueError("period or time of the maximum out of range")
+            raise ParameterOutOfDomain("period or time of the maximum out of range")
         fm.set_parameter(xi)
         y = fm.mode(self.mode).solve_algebraic(0.0, y)
         z = y[self.d] / a
