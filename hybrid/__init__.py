@@ -9,6 +9,8 @@ slave (algebraic) variables of each mode solved as a DAE by IDA.
 from .continuation.autonomous import equilibrium_branch as equilibrium_branch
 from .continuation.autonomous import hopf_branch as hopf_branch
 from .continuation.autonomous import orbit_branch as orbit_branch
+from .continuation.backbone import backbone as backbone
+from .continuation.backbone_result import Backbone as Backbone
 from .continuation.branch import Branch as Branch
 from .continuation.branch import forcing_parameter as forcing_parameter
 from .continuation.forced import SpecialPoint as SpecialPoint
@@ -138,6 +140,8 @@ __all__ = [
     "NewtonOptions",
     "NotAffineError",
     "orbit_branch",
+    "backbone",
+    "Backbone",
     "ORBIT_OPTIONS",
     "OutputError",
     "Parameter",

@@ -17,6 +17,8 @@ from importlib import resources
 
 from hybrid import HybridSystem, load_system
 
+from .epmc import epmc_system
+
 __all__ = [
     "absorber",
     "isolator",
@@ -31,6 +33,7 @@ __all__ = [
     "iwan",
     "bladed_disk",
     "BUILTIN",
+    "epmc_system",
 ]
 
 

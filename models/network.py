@@ -51,6 +51,7 @@ from collections.abc import Mapping
 
 from hybrid import HybridSystem
 
+from .epmc import epmc_system
 from .network_draw import draw_network, force_text
 from .network_read import GROUND, Network, read_network
 from .network_structures import describe_structures
@@ -64,6 +65,7 @@ __all__ = [
     "describe_network",
     "draw",
     "draw_network",
+    "epmc",
     "network_system",
     "read_network",
 ]
@@ -122,6 +124,12 @@ def build(data: Mapping) -> HybridSystem:
 def describe(data: Mapping) -> str:
     """The network of a parsed network file as text (the ``network`` model format's description)."""
     return describe_network(read_network(data))
+
+
+def epmc(data: Mapping) -> HybridSystem:
+    """The free system of a parsed network file with the EPMC term ``+ xi M v`` (the ``network``
+    format's ``epmc``, for ``hybrid backbone``; :func:`hybrid_models.epmc.epmc_system`)."""
+    return epmc_system(read_network(data))
 
 
 def draw(data: Mapping, path) -> None:

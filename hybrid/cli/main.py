@@ -33,7 +33,7 @@ from ..core.budget import time_limit
 from ..core.errors import BudgetExceeded, ModelError, OutputError, SimulationError, WorkerError
 from ..core.files import os_error_text
 from ..core.workers import Terminated, signals_as_interrupts
-from . import cont, frc, locus, orbit, show, simulate, sweep
+from . import backbone, cont, frc, locus, orbit, show, simulate, sweep
 from .common import GuardedStream, StreamClosed, UsageError
 
 __all__ = ["main", "build_parser"]
@@ -41,7 +41,7 @@ __all__ = ["main", "build_parser"]
 #: Entry points adding subcommands: ``name = "package.module:register"``, ``register(subparsers)``.
 COMMAND_GROUP = "hybrid.commands"
 #: The subcommands of this package, in the order of ``hybrid --help``.
-BUILTIN = (simulate, orbit, frc, show, sweep, cont, locus)
+BUILTIN = (simulate, orbit, frc, show, sweep, cont, locus, backbone)
 
 
 def build_parser() -> argparse.ArgumentParser:

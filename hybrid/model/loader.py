@@ -199,6 +199,19 @@ def draw_model_file(path: str | Path, out: str | Path) -> bool:
     return found
 
 
+def epmc_model_file(path: str | Path) -> HybridSystem | None:
+    """The free system with the EPMC term (``+ xi M v``, no forcing) that its format derives from a
+    model file (the format's ``epmc``, e.g. a network's); None if its format derives none.
+
+    Raises
+    ------
+    ModelError
+        As :func:`load_system`.
+    """
+    found, system = _with_format(path, "epmc")
+    return system if found else None
+
+
 def read_model_file(path: str | Path) -> dict:
     """The parsed content of a model file, read within the size limits.
 
