@@ -51,6 +51,7 @@ _COVERED = {
     "orbit",
     "origins",
     "cells",
+    "contacts",  # massless: their forces act on masses, which get their term
 }
 
 
