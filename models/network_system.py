@@ -202,7 +202,7 @@ class _Derivation:
             ):
                 self.hubs[x] = f"net_{x}"
         for x in self.coords:  # a structure's accelerations name the forces on its attached DOFs
-            if self.touching[x] or x in self.forces_on:
+            if self.touching[x] or x in self.forces_on or x in self.contact_terms:
                 self.hubs[x] = f"net_{x}"
 
     # a friction element as a component -----------------------------------------
