@@ -73,10 +73,10 @@ def frame_element(
     return R.T @ m @ R, R.T @ k @ R
 
 
-def blade_matrices(n: int = ELEMENTS) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def blade_matrices(n: int = ELEMENTS, platform: bool = True) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """``(M, K, dofs)`` of the clamped blade of ``n`` frame elements and its two-element platform
     (DOFs x1, y1, th1, ..., xn, yn, thn, then xpl, ypl, thpl and xpr, ypr, thpr: the platform's
-    left and right edges)."""
+    left and right edges; without them if not ``platform``: the bare cantilever)."""
     blade = (E * CHORD * THICKNESS, E * CHORD * THICKNESS**3 / 12.0, RHO * CHORD * THICKNESS)
     plate = (
         E * CHORD * PLATFORM_THICKNESS,
@@ -95,9 +95,11 @@ def blade_matrices(n: int = ELEMENTS) -> tuple[np.ndarray, np.ndarray, list[str]
 
     for e in range(n):
         add(e, e + 1, blade, LENGTH / n, np.pi / 2)  # along +y
+    dofs = [name for j in range(1, n + 1) for name in (f"x{j}", f"y{j}", f"th{j}")]
+    if not platform:
+        return M[3:-6, 3:-6], K[3:-6, 3:-6], dofs
     add(PLATFORM_NODE, n + 1, plate, PLATFORM_HALF, np.pi)  # to the left edge, along -x
     add(PLATFORM_NODE, n + 2, plate, PLATFORM_HALF, 0.0)  # to the right edge, along +x
-    dofs = [name for j in range(1, n + 1) for name in (f"x{j}", f"y{j}", f"th{j}")]
     dofs += ["xpl", "ypl", "thpl", "xpr", "ypr", "thpr"]
     return M[3:, 3:], K[3:, 3:], dofs
 
