@@ -22,6 +22,8 @@ from hybrid import (
     IDA,
     Exact,
     ModelError,
+    NewtonOptions,
+    ShootingOptions,
     SolverOptions,
     periodic_orbit,
     simulate,
@@ -343,8 +345,12 @@ def test_ring_travelling_wave_orbit_is_cyclically_symmetric():
     N = 2
     S = system_from_dict(_ring(N))
     p = dict(S.preset("standard"))
-    o = periodic_orbit(S, p, options=EXACT)
+    # Newton's tolerance 1e-7: I - M's condition (2.5e10) comes from the state's scales (positions
+    # ~1e-5 m, velocities ~0.1 m/s, modal coordinates), the multipliers are all below 0.997
+    newton = NewtonOptions(tol=1e-7, max_iter=30)
+    o = periodic_orbit(S, p, options=EXACT, settings=ShootingOptions(newton=newton))
     assert o.converged, o.message
+    assert o.stability == "stable" and max(abs(o.multipliers)) < 0.999
     fr = o.local_fractions
     print("blade_ring (N = 2) orbit fractions:", {k: round(v, 6) for k, v in fr.items()})
     assert fr.get("left_1.slip+", 0.0) + fr.get("left_1.slip-", 0.0) > 0.01
@@ -353,15 +359,20 @@ def test_ring_travelling_wave_orbit_is_cyclically_symmetric():
     tr = simulate(S, p, (o.t0, o.t0 + o.period - tau), x0, o.mode0, options=EXACT)
     end = tr.final_values
     # x_{i+1}(t0) = x_i(t0 - tau) = x_i(t0 + T - tau)
-    for i in range(1, N + 1):
-        j = i % N + 1
-        for local in (
-            "blade_{}_x10",
-            "v_blade_{}_x10",
-            "blade_{}_xpr",
-            "blade_{}_ypl",
-            "damper_x_{}",
-            "damper_y_{}",
-        ):
-            a, b = end[local.format(i)], x0[local.format(j)]
-            assert abs(a - b) <= 1e-9 * o.amplitude[local.format(i)], (local, i, a, b)
+    pos = ("blade_{}_x10", "blade_{}_xpr", "blade_{}_ypr", "blade_{}_ypl", "damper_x_{}", "damper_y_{}")
+    vel = ("v_blade_{}_x10", "v_blade_{}_xpr", "v_blade_{}_ypr", "vd_x_{}", "vd_y_{}")
+    worst = {}
+    for kind, names in (("displacement", pos), ("velocity", vel)):
+        scale = max(o.amplitude[n.format(i)] for n in names for i in range(1, N + 1))
+        worst[kind] = max(
+            abs(end[n.format(i)] - x0[n.format(i % N + 1)]) / scale for n in names for i in range(1, N + 1)
+        )
+    print(f"blade_ring (N = 2): cyclic symmetry, largest difference {worst} of the largest amplitude")
+    # to the orbit's accuracy, not to 1e-9: Newton's method on the exact period map of this stiff
+    # model stalls near 1e-7 of max |x| (a second pass at tol 1e-8 finds no decrease), so the orbit's
+    # state is known to a few 1e-7 (measured: 2.5e-7 of the displacements' amplitude, 5.1e-7 of the
+    # velocities'); a wiring error (a wrong neighbour or phase) would be of order 1
+    assert worst["displacement"] <= 1e-6 and worst["velocity"] <= 2e-6
+    for c in ("left", "right"):  # each sector's contacts spend the same time in each local mode
+        for m in ("stick", "slip+", "slip-", "open"):
+            assert fr.get(f"{c}_2.{m}", 0.0) == pytest.approx(fr.get(f"{c}_1.{m}", 0.0), abs=1e-6)
