@@ -376,3 +376,91 @@ def test_ring_travelling_wave_orbit_is_cyclically_symmetric():
     for c in ("left", "right"):  # each sector's contacts spend the same time in each local mode
         for m in ("stick", "slip+", "slip-", "open"):
             assert fr.get(f"{c}_2.{m}", 0.0) == pytest.approx(fr.get(f"{c}_1.{m}", 0.0), abs=1e-6)
+
+
+# ----------------------------------------------------------------------------
+# friction elements on structures' DOFs: the stop's velocity reset (an impulse through M^-1)
+# ----------------------------------------------------------------------------
+def _two_blocks(layout: str) -> dict:
+    """Two blocks (m1 = 1, m2 = 2 kg) on springs to ground, a friction element between them and one
+    from block 2 to the ground, a force on block 1; the blocks as masses, or (``layout``) as DOFs
+    of structures: ``"one"`` (both DOFs of one structure), ``"mixed"`` (block 1 a structure's DOF,
+    block 2 a mass)."""
+    d = {
+        "model": {"name": f"blocks_{layout}", "format": "network"},
+        "masses": {"x1": {"mass": 1.0}, "x2": {"mass": 2.0}},
+        "springs": {"k1": {"between": ["ground", "x1"], "stiffness": 1.0}, "k2": {"between": ["ground", "x2"], "stiffness": 3.0}},
+        "dampers": {"c1": {"between": ["ground", "x1"], "coefficient": 0.02}},
+        "friction": {
+            "f12": {"between": ["x1", "x2"], "sliding": 0.3},
+            "f2": {"between": ["x2", "ground"], "sliding": 0.2},
+        },
+        "forces": {"drive": {"on": "x1", "amplitude": 1.0, "frequency": 1.3}},
+    }  # fmt: skip
+    if layout == "masses":
+        return d
+    names = {"one": {"x1": "body.a", "x2": "body.b"}, "mixed": {"x1": "body.a", "x2": "x2"}}[layout]
+    if layout == "one":
+        body = Structure.from_arrays(
+            np.diag([1.0, 2.0]), np.diag([1.0, 3.0]), ["a", "b"], np.diag([0.02, 0.0])
+        )
+        d.pop("masses")
+        d["springs"] = {}
+        d["dampers"] = {}
+    else:
+        body = Structure.from_arrays(np.eye(1), np.eye(1), ["a"], 0.02 * np.eye(1))
+        d["masses"].pop("x1")
+        d["springs"].pop("k1")
+        d["dampers"] = {}
+    d["structures"] = {"body": {"matrices": body}}
+    for e in d["friction"].values():
+        e["between"] = [names.get(p, p) for p in e["between"]]
+    for e in d["springs"].values():
+        e["between"] = [names.get(p, p) for p in e["between"]]
+    d["forces"]["drive"]["on"] = names["x1"]
+    return d
+
+
+@pytest.mark.parametrize("layout", ["one", "mixed"])
+def test_friction_on_structures_dofs_stops_as_on_masses(layout):
+    # issue 32: a friction element between two DOFs of one structure, or a DOF and a mass, or a DOF
+    # and the ground: its stop resets the velocities by an impulse through M^-1 (for a diagonal M,
+    # the masses' momentum-weighted mean); the same run as with masses, stops and all
+    A, B = system_from_dict(_two_blocks("masses")), system_from_dict(_two_blocks(layout))
+    span = (0.0, 4 * 2 * np.pi / 1.3)
+    a = simulate(A, {}, span, {v.name: 0.0 for v in A.variables}, options=EXACT)
+    b = simulate(B, {}, span, {v.name: 0.0 for v in B.variables}, options=EXACT)
+    stops = [e for e in a.events if "stick" in e.target]
+    assert len(stops) >= 4 and [e.target for e in b.events] == [e.target for e in a.events]
+    for x, y in zip(a.events, b.events, strict=True):
+        assert y.t == pytest.approx(x.t, abs=1e-12)
+    fa, fb = a.final_values, b.final_values
+    rename = {"one": {"x1": "body_a", "x2": "body_b"}, "mixed": {"x1": "body_a", "x2": "x2"}}[layout]
+    for m, s in rename.items():
+        v = {"x1": "v_x1", "x2": "v_x2"}[m]
+        assert fb[s] == pytest.approx(fa[m], abs=1e-12)
+        assert fb[f"v_{s}" if s.startswith("body") else v] == pytest.approx(fa[v], abs=1e-12)
+    for k in ("f_f12", "f_f2", "W", "D", "E"):
+        assert fb[k] == pytest.approx(fa[k], abs=1e-12)
+
+
+def test_the_stop_impulse_with_a_coupled_mass_matrix():
+    # issue 32: with a non-diagonal M the stop between two DOFs of one structure is an impulse
+    # (+J on a, -J on b): after it v_a = v_b, and M (v+ - v-) is along e_a - e_b
+    M = np.array([[2.0, 0.5, 0.1], [0.5, 1.0, 0.2], [0.1, 0.2, 3.0]])
+    body = Structure.from_arrays(M, np.diag([1.0, 2.0, 3.0]), ["a", "b", "c"])
+    d = {
+        "model": {"name": "coupled", "format": "network"},
+        "structures": {"body": {"matrices": body}},
+        "friction": {"f": {"between": ["body.a", "body.b"], "sliding": 0.3}},
+        "forces": {"drive": {"on": "body.a", "amplitude": 1.0, "frequency": 1.3}},
+    }
+    S = system_from_dict(d)
+    reset = next(t.reset for c in S.components for t in c.transitions if t.name == "stop+")
+    before = {"v_body_a": 0.7, "v_body_b": -0.4, "v_body_c": 0.25}
+    after = dict(before)
+    after.update({v: eval(text, {}, dict(before)) for v, text in reset.items()})  # noqa: S307 (arithmetic)
+    v0, v1 = (np.array([x[f"v_body_{k}"] for k in "abc"]) for x in (before, after))
+    assert v1[0] == pytest.approx(v1[1], abs=1e-15)
+    impulse = M @ (v1 - v0)
+    assert impulse[0] == pytest.approx(-impulse[1], rel=1e-13) and abs(impulse[2]) <= 1e-14
