@@ -175,6 +175,10 @@ class _Cell:
             return f"{self.copy_name(head, i)}.{tail}"
         return None
 
+    def kinds(self) -> str:
+        """What a point of the cell may be, for a message."""
+        return "mass, node or structure's DOF" if self.structures else "mass or node"
+
     def shown_points(self) -> str:
         """The cell's points for a message."""
         have = sorted(self.points) + [f"{s}.DOF" for s in sorted(self.structures)]
@@ -230,7 +234,7 @@ class _Expander:
         point = cell.local_point(item, k)
         if point is None:
             raise ModelError(
-                f"{where}: {text!r}: cell `{cname}` has no mass, node or structure's DOF `{item}`; its points: "
+                f"{where}: {text!r}: cell `{cname}` has no {cell.kinds()} `{item}`; its points: "
                 f"{cell.shown_points()}"
             )
         return point
@@ -247,7 +251,7 @@ class _Expander:
             local = text[5:]
             if cell.local_point(local, i) is None:
                 raise ModelError(
-                    f"{where}: {text!r}: the cell has no mass, node or structure's DOF `{local}` (its points: "
+                    f"{where}: {text!r}: the cell has no {cell.kinds()} `{local}` (its points: "
                     f"{cell.shown_points()})"
                 )
             j = cell.neighbour(i, 1 if text.startswith("next.") else -1)

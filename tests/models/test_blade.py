@@ -464,3 +464,18 @@ def test_the_stop_impulse_with_a_coupled_mass_matrix():
     assert v1[0] == pytest.approx(v1[1], abs=1e-15)
     impulse = M @ (v1 - v0)
     assert impulse[0] == pytest.approx(-impulse[1], rel=1e-13) and abs(impulse[2]) <= 1e-14
+
+
+def test_a_cells_contact_on_a_neighbours_missing_dof_names_the_copy_and_lists_the_dofs():
+    d = _ring(3)
+    d["cells"]["sector"]["contacts"]["right"]["normal"] = ["damper_y", "next.blade.yq"]
+    with pytest.raises(ModelError) as exc:
+        system_from_dict(d)
+    msg = str(exc.value)
+    assert "right_1" in msg and "structure `blade_2` has no DOF `yq`; its DOFs: x1, y1, th1" in msg
+    # a copy's DOF from the top level: CELL[k].S.D
+    d = _ring(3)
+    d["forces"] = {"extra": {"on": "sector[2].blade.x10", "offset": 1.0}}
+    S = system_from_dict(d)
+    assert "extra" in S.definitions and "net_blade_2_x10" in S.definitions
+    assert "extra" in S.definitions["net_blade_2_x10"]
