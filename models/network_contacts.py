@@ -62,7 +62,7 @@ class Contact:
         Key of the contact in ``[contacts]``.
     tangential, normal : tuple of (str, str)
         The ends ``(A, B)`` of the tangential displacement ``x = B - A`` and ``(C, D)`` of the gap
-        ``g = D - C`` [m]: masses or ``"ground"``.
+        ``g = D - C`` [m]: masses, structures' DOFs (their variables ``NAME_DOF``) or ``"ground"``.
     preload : str
         ``N0`` [N], the normal force at ``g = 0`` (the contact opens at ``g = N0/kn``).
     kn, kt : str
