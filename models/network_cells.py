@@ -1,10 +1,12 @@
 """Repeated structures in network files: a cell declared once and repeated as a chain or a ring.
 
 A ``[cells.NAME]`` table of a network file declares a *cell*: masses, nodes, springs, dampers,
-friction elements and forces with names local to the cell, repeated ``count`` times. Copy ``i``
-(1 to ``count``) of a local item ``X`` is the network item ``X_i``; its ends may name the cell's
-own points, its neighbours' (``next.X``, ``prev.X``), a copy of any cell (``CELL[k].X``), the
-top-level masses and nodes, and ``ground``. Parameters declared in the cell
+friction elements, 2-D contacts, forces and structures (``[cells.NAME.structures.S]``, matrices as
+at the top level) with names local to the cell, repeated ``count`` times. Copy ``i`` (1 to
+``count``) of a local item ``X`` is the network item ``X_i``; its ends may name the cell's own
+points, its neighbours' (``next.X``, ``prev.X``), a copy of any cell (``CELL[k].X``), the top-level
+masses and nodes, and ``ground``; a point may be a DOF of a local structure (``S.D``, ``next.S.D``,
+``CELL[k].S.D``: the DOF ``D`` of copy ``S_i``). Parameters declared in the cell
 (``[cells.NAME.parameters.P]``) take one value per copy (the network parameters ``P_1`` ...
 ``P_count``), given in a preset's sub-table ``[presets.S.NAME]`` as one number for all copies, a
 list of ``count`` numbers, or a named distribution (``{ linear = [a, b] }``,
@@ -29,7 +31,7 @@ __all__ = ["MAX_COPIES", "expand_cells"]
 MAX_COPIES = 5000
 
 _CELL_KEYS = {"count", "layout", "ends", "description"}
-_PART_TABLES = ("masses", "nodes", "springs", "dampers", "friction", "forces", "contacts")
+_PART_TABLES = ("masses", "nodes", "springs", "dampers", "friction", "forces", "contacts", "structures")
 _ELEMENT_TABLES = ("springs", "dampers", "friction", "contacts")
 _LAYOUTS = ("chain", "ring")
 _ENDS = ("free", "fixed")
@@ -51,7 +53,9 @@ _EXPR_KEYS = {
     "mu",
 }
 _NAME_TOKEN = re.compile(r"(?<![A-Za-z0-9_.])[A-Za-z_][A-Za-z0-9_]*")
-_CELL_REF = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\[(-?[0-9]+)\]\.([A-Za-z_][A-Za-z0-9_]*)")
+_CELL_REF = re.compile(
+    r"([A-Za-z_][A-Za-z0-9_]*)\[(-?[0-9]+)\]\.([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)?)"
+)
 _DISTRIBUTIONS = ("linear", "alternating")
 
 
@@ -140,6 +144,7 @@ class _Cell:
                 local_table[item] = table
             self.parts[table] = content
         self.points = set(self.parts["masses"]) | set(self.parts["nodes"])
+        self.structures = set(self.parts["structures"])  # their DOFs: STRUCTURE.DOF
         for m, mspec in self.parts["masses"].items():
             v = mspec.get("velocity") if isinstance(mspec, Mapping) else None
             if v is not None:
@@ -158,6 +163,26 @@ class _Cell:
 
     def copy_name(self, local: str, i: int) -> str:
         return f"{local}_{i}"
+
+    def local_point(self, text: str, i: int) -> str | None:
+        """Copy ``i`` of a local point: a mass or node ``X`` (``X_i``), or a DOF ``S.D`` of a local
+        structure ``S`` (``S_i.D``; the DOF is checked when the structure's matrices are read).
+        None if ``text`` is neither."""
+        if text in self.points:
+            return self.copy_name(text, i)
+        head, dot, tail = text.partition(".")
+        if dot and head in self.structures and tail:
+            return f"{self.copy_name(head, i)}.{tail}"
+        return None
+
+    def kinds(self) -> str:
+        """What a point of the cell may be, for a message."""
+        return "mass, node or structure's DOF" if self.structures else "mass or node"
+
+    def shown_points(self) -> str:
+        """The cell's points for a message."""
+        have = sorted(self.points) + [f"{s}.DOF" for s in sorted(self.structures)]
+        return ", ".join(have) or "none"
 
     def neighbour(self, i: int, step: int) -> int | None:
         """Index of the copy ``step`` away from copy ``i`` (None past a chain's end)."""
@@ -206,12 +231,13 @@ class _Expander:
             )
         if not 1 <= k <= cell.count:
             raise ModelError(f"{where}: {text!r}: cell `{cname}` has copies 1 to {cell.count}")
-        if item not in cell.points:
-            have = ", ".join(sorted(cell.points)) or "none"
+        point = cell.local_point(item, k)
+        if point is None:
             raise ModelError(
-                f"{where}: {text!r}: cell `{cname}` has no mass or node `{item}`; its points: {have}"
+                f"{where}: {text!r}: cell `{cname}` has no {cell.kinds()} `{item}`; its points: "
+                f"{cell.shown_points()}"
             )
-        return cell.copy_name(item, k)
+        return point
 
     def point(self, text: object, cell: _Cell | None, i: int, where: str) -> str | None:
         """An end or ``on`` as a network point name (None: past the free end of a chain)."""
@@ -223,18 +249,16 @@ class _Expander:
             return text
         if text.startswith(("next.", "prev.")):
             local = text[5:]
-            if local not in cell.points:
-                have = ", ".join(sorted(cell.points)) or "none"
+            if cell.local_point(local, i) is None:
                 raise ModelError(
-                    f"{where}: {text!r}: the cell has no mass or node `{local}` (its points: {have})"
+                    f"{where}: {text!r}: the cell has no {cell.kinds()} `{local}` (its points: "
+                    f"{cell.shown_points()})"
                 )
             j = cell.neighbour(i, 1 if text.startswith("next.") else -1)
             if j is None:
                 return "ground" if cell.ends == "fixed" else None
-            return cell.copy_name(local, j)
-        if text in cell.points:
-            return cell.copy_name(text, i)
-        return text
+            return cell.local_point(local, j)
+        return cell.local_point(text, i) or text
 
     def expression(self, value: object, cell: _Cell, i: int) -> object:
         """A cell's coefficient for copy ``i``: ``i``, ``N`` and per-copy parameters substituted."""

@@ -62,7 +62,7 @@ class Contact:
         Key of the contact in ``[contacts]``.
     tangential, normal : tuple of (str, str)
         The ends ``(A, B)`` of the tangential displacement ``x = B - A`` and ``(C, D)`` of the gap
-        ``g = D - C`` [m]: masses or ``"ground"``.
+        ``g = D - C`` [m]: masses, structures' DOFs (their variables ``NAME_DOF``) or ``"ground"``.
     preload : str
         ``N0`` [N], the normal force at ``g = 0`` (the contact opens at ``g = N0/kn``).
     kn, kt : str
@@ -100,15 +100,23 @@ def read_contacts(
     coef: Callable[[object, Mapping, str], str],
     positive: Callable[..., None],
     check_keys: Callable[..., Mapping],
+    dofs: Mapping[str, str] | None = None,
 ) -> tuple[Contact, ...]:
     """Validate the ``[contacts]`` table of a network file (the reader's helpers passed in).
+
+    ``dofs`` maps the address of each structure's DOF (``"blade.x5"``) to its variable
+    (``"blade_x5"``): a contact's end may be such a DOF (its forces then enter the structure's
+    accelerations through the columns of ``M^-1``, :mod:`hybrid_models.network_structures`).
 
     Raises
     ------
     ModelError
-        Naming the contact and the key: a missing or unknown key, an end that is not a mass or the
-        ground, the same pair twice, a stiffness or friction coefficient that is not > 0.
+        Naming the contact and the key: a missing or unknown key, an end that is not a mass, a
+        structure's DOF or the ground (a structure's DOF that does not exist: the message lists that
+        structure's DOFs), the same pair twice, a stiffness or friction coefficient that is not > 0.
     """
+    dofs = dofs or {}
+    variables = set(dofs.values())
     if len(table) > MAX_CONTACTS:
         raise ModelError(
             f"[contacts]: {len(table)} contacts; at most {MAX_CONTACTS} are allowed (each is a component of "
@@ -127,18 +135,15 @@ def read_contacts(
                     f"{where} `{key}` must be a list of two names [A, B] (the displacement B - A), got "
                     f"{shown_value(ends)}"
                 )
+            ends = [dofs.get(e, e) for e in ends]  # a structure's DOF: NAME.DOF -> NAME_DOF
             for end in ends:
                 if end in nodes:
                     raise ModelError(
                         f"{where} `{key}`: `{end}` is a massless node; a contact's ends are masses or ground "
                         "(its forces enter their momentum balances): put a mass there"
                     )
-                if end != "ground" and end not in masses:
-                    shown = ", ".join(list(masses)[:12])
-                    raise ModelError(
-                        f"{where} `{key}`: unknown end `{shown_key(end)}`; a contact's ends are masses "
-                        f"({shown}) or ground"
-                    )
+                if end != "ground" and end not in masses and end not in variables:
+                    raise ModelError(f"{where} `{key}`: {unknown_end(end, masses, dofs)}")
             if ends[0] == ends[1]:
                 raise ModelError(f"{where} `{key}`: both ends are `{ends[0]}`")
             pairs[key] = (ends[0], ends[1])
@@ -171,6 +176,27 @@ def read_contacts(
             )
         )
     return tuple(out)
+
+
+def unknown_end(end: str, masses: Mapping, dofs: Mapping[str, str]) -> str:
+    """What is wrong with an end that is neither a mass, a structure's DOF nor the ground: for
+    ``S.X`` with ``S`` a structure, the DOFs ``S`` has; else the masses and structures there are."""
+    structures: dict[str, list[str]] = {}
+    for address in dofs:
+        s, _, d = address.partition(".")
+        structures.setdefault(s, []).append(d)
+    head, dot, tail = end.partition(".")
+    if dot and head in structures:
+        have = structures[head]
+        shown = ", ".join(have[:24]) + (f", ... ({len(have) - 24} more)" if len(have) > 24 else "")
+        return (
+            f"structure `{head}` has no DOF `{shown_key(tail)}`; its DOFs: {shown} "
+            f"(address one as {head}.{have[0]})"
+        )
+    msg = f"unknown end `{shown_key(end)}`; a contact's ends are masses ({', '.join(list(masses)[:12]) or 'none'})"
+    if structures:
+        msg += f", structures' DOFs (NAME.DOF; structures: {', '.join(list(structures)[:12])})"
+    return msg + " or ground"
 
 
 def _p(text: str) -> str:

@@ -442,6 +442,7 @@ def read_network(data: Mapping) -> Network:
         coef=_coef,
         positive=_positive,
         check_keys=_check_keys,
+        dofs=aliases,
     )
 
     forces: list[Force] = []
@@ -494,6 +495,7 @@ def read_network(data: Mapping) -> Network:
             raise ModelError(f"[{extra_table}] must be a table")
 
     attached = {p for e in elements for p in (e.a, e.b)} | {f.on for f in forces}
+    attached |= {p for c in contacts for p in (*c.tangential, *c.normal)}  # kept as boundary DOFs
     structures = finish_structures(specs, attached, claim)
     cells = tuple(
         (

@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from hybrid import HybridSystem, Mode, ModelError, Transition, Variable
 from hybrid.model.elements import Component, Parameter
 from hybrid.model.system import MODE_SEPARATOR
@@ -211,7 +213,7 @@ class _Derivation:
             ):
                 self.hubs[x] = f"net_{x}"
         for x in self.coords:  # a structure's accelerations name the forces on its attached DOFs
-            if self.touching[x] or x in self.forces_on:
+            if self.touching[x] or x in self.forces_on or x in self.contact_terms:
                 self.hubs[x] = f"net_{x}"
 
     # a friction element as a component -----------------------------------------
@@ -306,15 +308,46 @@ class _Derivation:
     def stop_reset(self, e: Element) -> dict[str, str]:
         """Velocities of the masses a stop joins: the ground's, or their momentum-weighted mean."""
         ends = [p for p in (e.a, e.b) if p in self.net.masses]
+        if any(p in self.coords for p in (e.a, e.b)):  # a structure's DOF: the impulse through M^-1
+            return _impulse_reset(self, e)
         if GROUND in (e.a, e.b):
-            return {
-                self.vel(x): self.vel(GROUND) for x in (e.a, e.b) if x in self.net.masses or x in self.coords
-            }
+            return {self.vel(x): self.vel(GROUND) for x in (e.a, e.b) if x in self.net.masses}
         if len(ends) < 2:
             return {}
         num = " + ".join(f"{_paren(self.net.masses[x][0])}*{self.net.masses[x][1]}" for x in ends)
         den = " + ".join(self.net.masses[x][0] for x in ends)
         return {self.net.masses[x][1]: f"({num})/({den})" for x in ends}
+
+
+def _impulse_reset(d: _Derivation, e: Element) -> dict[str, str]:
+    """The stop of a friction element with a structure's DOF at an end (the other a mass, a DOF or
+    the ground, which takes no velocity change):
+    the impulse ``J`` (``+J`` on ``a``, ``-J`` on ``b``) that makes the ends' velocities equal,
+    ``J = w / g`` with ``w = v_b - v_a`` and ``g = u_a - u_b`` (``u = M^-1 (e_a - e_b)``, the
+    velocity change per unit impulse), each velocity ``v <- v + u_v J`` (for two masses: their
+    momentum-weighted mean). None if an end is a massless node (its element holds no momentum)."""
+    if any(p in d.net.nodes for p in (e.a, e.b)):
+        return {}
+    change: dict[str, list[str]] = {}  # velocity -> signed terms of u
+    for p, sign in ((e.a, "+"), (e.b, "-")):
+        if p == GROUND:
+            continue
+        if p in d.net.masses:
+            m, v, _ = d.net.masses[p]
+            change.setdefault(v, []).append(f"{sign}1/{_paren(m)}")
+            continue
+        for s in d.net.structures.values():
+            if p in s.coords:
+                k = s.coords.index(p)
+                column = np.linalg.inv(s.model.M)[:, k]
+                for v, c in zip(s.velocities, column, strict=True):
+                    if c != 0.0:
+                        neg = (c < 0) != (sign == "-")
+                        change.setdefault(v, []).append(f"{'-' if neg else '+'}{abs(float(c))!r}")
+    u = {v: _join(terms) for v, terms in change.items()}
+    g = _join([f"+({u.get(d.vel(e.a), '0')})", f"-({u.get(d.vel(e.b), '0')})"])
+    J = f"({d.diff(d.vel(e.b), d.vel(e.a))})/({g})"
+    return {v: f"{v} + ({text})*{J}" for v, text in u.items()}
 
 
 def _offset(e: Element) -> str:
