@@ -168,6 +168,7 @@ def test_the_evaluations_of_an_analysis_are_bounded_and_kept():
 # Systems with components: a sparse mode's dense form, a composed mode's rows and pattern
 def test_a_sparse_modes_dense_form_is_a_declared_field(monkeypatch):
     monkeypatch.setattr(assembly, "DENSE_LIMIT", 0)
+    monkeypatch.setattr(assembly, "dense_is_cheaper", lambda am: False)  # the sparse path, whatever it costs
     n = 3
     system = composed_chain(n)
     cs = CompiledSystem(system, chain_params(n))

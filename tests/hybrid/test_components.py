@@ -242,6 +242,7 @@ def test_the_sparse_taylor_path_equals_the_dense_eigen_path(monkeypatch):
     p = chain_params(n)
     dense = _run(composed_chain(n), p, EXACT)
     monkeypatch.setattr(assembly, "DENSE_LIMIT", 0)
+    monkeypatch.setattr(assembly, "dense_is_cheaper", lambda am: False)  # the sparse path, whatever it costs
     system = composed_chain(n)
     sparse = _run(system, p, EXACT)
     cs = CompiledSystem(system, p)
