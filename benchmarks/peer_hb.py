@@ -189,20 +189,23 @@ FORCED = {
 
 
 def library_backbone(amplitudes) -> dict | None:
-    """``hybrid.backbone`` on the same oscillator where it exists (issue 31, item 1), else None."""
+    """``hybrid.backbone`` on the same oscillator (issue 31): the EPMC system of
+    ``models/jenkins_oscillator.toml`` (``hybrid_models.epmc_system``) with this benchmark's
+    parameters, on the exact integrator; None where the library has no backbone."""
     import hybrid
 
     if not hasattr(hybrid, "backbone"):
         return None
-    system = hybrid.load_system(HERE / "data" / "jenkins_forced.toml")
-    p = dict(system.preset("standard"), c=0.0, F=0.0)
+    import hybrid_models
+
+    system = hybrid_models.epmc_system(Path(hybrid_models.__file__).parent / "jenkins_oscillator.toml")
+    p = {"m": BACKBONE.m, "k": BACKBONE.k, "kt": BACKBONE.kt, "Fs": BACKBONE.Fs}
+    options = hybrid.SolverOptions(method=hybrid.Exact())
     t = time.perf_counter()
     try:
-        result = hybrid.backbone(system, p, amplitudes=list(amplitudes))
-    except (TypeError, hybrid.HybridError) as exc:  # its interface is still being written (issue 31)
-        print(
-            f"  hybrid.backbone exists but this call failed ({type(exc).__name__}: {exc}); adapt library_backbone"
-        )
+        result = hybrid.backbone(system, p, coordinate="x", amplitudes=list(amplitudes), options=options)
+    except (TypeError, hybrid.HybridError) as exc:
+        print(f"  hybrid.backbone failed ({type(exc).__name__}: {exc}); adapt library_backbone")
         return None
     secs = time.perf_counter() - t
     pts = result.points if hasattr(result, "points") else result["points"]
@@ -431,6 +434,8 @@ def main(argv=None) -> dict:
             d_om, d_D = rel(lib["omega"], ex["omega"]), rel(lib["damping_ratio"], ex["damping_ratio"])
             print(f"  hybrid.backbone against it: omega {d_om:.2e}, D {d_D:.2e} ({lib['seconds']:.3f} s)")
             bb["library"] = {"omega_error": d_om, "damping_error": d_D, "seconds": lib["seconds"]}
+            if len(lib["omega"]) != len(AMPLITUDES):
+                print(f"  hybrid.backbone returned {len(lib['omega'])} of {len(AMPLITUDES)} points")
         guesses = g_ph = None
         ph_ok = why_no_pyharm is None
         if ph_ok:  # compile pyHarm's numba kernels (cached on disk) outside the timings
@@ -526,7 +531,15 @@ def summarize(result: dict) -> None:
         print(
             f"  {key}: {word} H = {s['H']} (error {s['error']:.1e}), {s['seconds']:.3f} s = "
             f"{s['ratio_to_exact']:.3g} x the exact shooting ({bb['exact_seconds'] * 1e3:.1f} ms)"
+            + (
+                f", {s['seconds'] / bb['library']['seconds']:.3g} x hybrid.backbone "
+                f"({bb['library']['seconds']:.3f} s)"
+                if "library" in bb
+                else ""
+            )
         )
+        if "library" in bb:
+            s["ratio_to_library"] = s["seconds"] / bb["library"]["seconds"]
     for name, fr in result["forced"].items():
         ph = any("pyharm_amplitude" in r for r in fr["rows"])
         print(

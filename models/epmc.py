@@ -8,12 +8,13 @@ solved for (:func:`hybrid.backbone`), and ``D = xi / (2 omega)`` is the mode's d
 :func:`epmc_network` writes the term as one damper of coefficient ``-xi*m`` from the ground to each
 mass (force ``+ xi m v`` on it), so that every equation the derivation writes (momentum balances,
 the stick equations of the friction elements, the massless nodes) holds it; the forces and the base
-motion are removed. :func:`epmc_system` derives the system and rewrites its energy quadratures: ``D``
+motion are removed. A structure given by matrices (``[structures]``) gets the term in its
+accelerations: ``M^-1 (xi M v) = xi v``, so ``+ xi*v_X`` on each coordinate's acceleration ``acc_X``
+(:attr:`hybrid_models.network_structures.NetStructure.epmc`); a Craig-Bampton reduced structure's
+``M`` is the mass matrix of its reduced coordinates, so the same holds for its modal coordinates. :func:`epmc_system` derives the system and rewrites its energy quadratures: ``D``
 counts the network's own dissipation only (the artificial term is taken out again), ``W`` is the
-energy the artificial term puts in, ``xi * sum m v^2``. Over a periodic orbit the two are equal.
-
-Masses only: a network with ``[structures]`` (mass matrices) needs the term ``xi M v`` of each
-structure's mass matrix, which this module does not write (yet).
+energy the artificial term puts in, ``xi * (sum m v^2 + sum v' M v)``. Over a periodic orbit the
+two are equal.
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ _COVERED = {
     "origins",
     "cells",
     "contacts",  # massless: their forces act on masses, which get their term
+    "structures",  # + xi v on each coordinate's acceleration (NetStructure.epmc)
 }
 
 
@@ -64,7 +66,10 @@ def _damper_name(x: str) -> str:
 
 
 def epmc_network(net: Network, parameter: str = EPMC_PARAMETER) -> Network:
-    """``net`` free (no forces, no base motion) with a damper ``-parameter*m`` from the ground to each mass.
+    """``net`` free (no forces, no base motion) with ``+ parameter M v`` on its masses and structures.
+
+    A damper ``-parameter*m`` from the ground to each mass; ``+ parameter*v_X`` on the acceleration
+    of each coordinate of a structure (``M^-1 (parameter M v)``).
 
     Parameters
     ----------
@@ -85,11 +90,13 @@ def epmc_network(net: Network, parameter: str = EPMC_PARAMETER) -> Network:
     extra = [f.name for f in fields(net) if f.name not in _COVERED and getattr(net, f.name)]
     if extra:
         raise ModelError(
-            f"network `{net.name}` has {', '.join(extra)}: the EPMC transformation writes + xi m v for point "
-            "masses only, so its backbone would miss the term of those parts' mass matrices; not supported yet"
+            f"network `{net.name}` has {', '.join(extra)}: the EPMC transformation writes + xi M v for point "
+            "masses and structures only, so its backbone would miss the term of those parts' masses; "
+            "not supported yet"
         )
     taken = set(net.parameters) | set(net.masses) | set(net.nodes) | {e.name for e in net.elements}
     taken |= {v for _, v, _ in net.masses.values()} | {f.name for f in net.forces}
+    taken |= set(net.structures) | set(net.coords) | set(net.coords.values())
     added = {parameter} | {_damper_name(x) for x in net.masses}
     clash = sorted(added & taken)
     if clash:
@@ -118,6 +125,7 @@ def epmc_network(net: Network, parameter: str = EPMC_PARAMETER) -> Network:
         parameters=params,
         presets={k: {**v, parameter: 0.0} for k, v in net.presets.items()},
         plot=plot,
+        structures={k: replace(s, epmc=parameter) for k, s in net.structures.items()},
     )
 
 
@@ -136,7 +144,7 @@ def epmc_system(source, parameter: str = EPMC_PARAMETER) -> HybridSystem:
     HybridSystem
         As :func:`hybrid_models.network_system` of :func:`epmc_network`, with ``D`` the energy
         dissipated by the network's friction elements and dampers [J] and ``W`` the energy the
-        artificial term puts in, ``xi * sum m v^2`` integrated [J] (quadratures).
+        artificial term puts in, ``xi * (sum m v^2 + sum v' M v)`` integrated [J] (quadratures).
 
     Raises
     ------
@@ -154,9 +162,14 @@ def epmc_system(source, parameter: str = EPMC_PARAMETER) -> HybridSystem:
     system = network_system(free)
     eq = dict(system.equations)
     power = " + ".join(f"{parameter}*{_paren(m)}*{v}**2" for m, v, _ in free.masses.values())
-    # the artificial dampers' share of D is -xi m v^2 each: taken out again
-    eq["D"] = f"{_paren(eq['D'])} + {_paren(power)}"
-    eq["W"] = power
+    # the artificial dampers' share of D is -xi m v^2 each: taken out again (the structures' term is
+    # in their accelerations, not in D)
+    if power:
+        eq["D"] = f"{_paren(eq['D'])} + {_paren(power)}"
+    inputs = [power] if power else []
+    for s in free.structures.values():
+        inputs.append(f"{parameter}*({' '.join(s.mass_terms())})")
+    eq["W"] = " + ".join(inputs) if inputs else "0"
     variables = [
         Variable("W", "J", "energy put in by the EPMC term + xi M v")
         if v.name == "W"

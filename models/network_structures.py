@@ -66,6 +66,9 @@ class NetStructure:
     coords: tuple
     velocities: tuple
     description: str = ""
+    #: Name of a parameter ``xi`` [1/s] of an added damping ``- xi M v`` (EPMC,
+    #: :mod:`hybrid_models.epmc`): ``M^-1 (xi M v) = xi v`` adds ``+ xi*v_X`` to each acceleration.
+    epmc: str | None = None
 
     def equations(self, net_force: Mapping[str, str], total: Callable[[list[str]], str]) -> dict[str, str]:
         """``{coordinate: velocity, velocity: acceleration}``; ``net_force`` maps the attached
@@ -77,6 +80,8 @@ class NetStructure:
         for i, (q, v) in enumerate(zip(self.coords, self.velocities, strict=True)):
             terms = _terms(A[i], self.coords) + _terms(B[i], self.velocities)
             terms += _terms(np.array([Minv[i, k] for k, _ in attached]), [n for _, n in attached])
+            if self.epmc is not None:
+                terms.append(f"+{self.epmc}*{v}")
             out[q] = v
             out[v] = total(terms)
         return out
@@ -84,6 +89,10 @@ class NetStructure:
     def energy_terms(self) -> list[str]:
         """Signed terms of ``v'Mv/2 + q'Kq/2`` [J]."""
         return _quadratic(0.5 * self.model.M, self.velocities) + _quadratic(0.5 * self.model.K, self.coords)
+
+    def mass_terms(self) -> list[str]:
+        """Signed terms of ``v'Mv`` [J] (twice the kinetic energy)."""
+        return _quadratic(self.model.M, self.velocities)
 
     def dissipation_terms(self) -> list[str]:
         """Signed terms of ``v'Cv`` [W]."""

@@ -284,9 +284,17 @@ def test_backbone_stops_at_the_deadline_with_what_it_has():
 
 
 def test_epmc_refuses_a_network_part_it_does_not_cover():
-    # a part of a network with a mass of another kind (e.g. a structure's mass matrix, issue 32)
-    # would miss its + xi M v term: refused by name rather than computed wrong
+    # a part of a network with a mass of another kind (a field added to Network later) would miss
+    # its + xi M v term: refused by name rather than computed wrong (structures are covered since
+    # issue 31: + xi v on their accelerations, tests/models/test_backbones_structures.py)
     net = read_network(tomllib.loads((MODELS / "jenkins_oscillator.toml").read_text()))
-    with pytest.raises(hybrid.ModelError, match="structures"):
-        epmc_network(dataclasses.replace(net, structures={"beam": 1}))
+    wider = dataclasses.make_dataclass(
+        "WiderNetwork",
+        [("joints", dict, dataclasses.field(default_factory=dict))],
+        bases=(type(net),),
+        frozen=True,
+    )
+    extended = wider(**{f.name: getattr(net, f.name) for f in dataclasses.fields(net)}, joints={"j": 1})
+    with pytest.raises(hybrid.ModelError, match="joints"):
+        epmc_network(extended)
     assert epmc_network(net).forces == ()
