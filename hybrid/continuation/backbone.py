@@ -9,8 +9,11 @@ differential variables of its mode), its period ``T``, ``xi``, the time ``t*`` o
 ``q`` and ``a``:
 
 * ``y(T; y0, xi) - y0 = 0`` (periodicity),
-* ``f(y_ref) . (y0 - y_ref) = 0`` (the anchor: the time origin on a hyperplane orthogonal to the
-  flow at a reference point, the previous orbit's),
+* ``f(y_ref) . (y0 / a - y_ref / a_ref) = 0`` (the anchor: the time origin on a hyperplane
+  orthogonal to the flow at a reference point, the previous orbit's, in the state scaled by the
+  amplitude: a hyperplane fixed in the unscaled state would shift the orbit's phase as ``a`` changes,
+  and the tangent of the curve would be mostly that phase drift, the step in ``ln a`` its small
+  share),
 * ``q(t*) - a = 0`` and ``q'(t*) = 0`` (the amplitude: ``t*`` is where ``q`` is largest).
 
 Its Jacobian is exact: the fundamental matrices of the runs to ``T`` and to ``t*`` (with the
@@ -88,6 +91,14 @@ HARMONICS = 15
 MIN_START = 1e-12
 #: Newton iterations of one correction; bisection steps of a located event at most.
 CORRECTOR_ITER, LOCATE_ITER = 12, 60
+_FAILED = (
+    RuntimeError,
+    ValueError,
+    GrazingSwitchError,
+    ZeroDivisionError,
+    OverflowError,
+    np.linalg.LinAlgError,
+)
 
 
 # ----------------------------------------------------------------------------
@@ -113,15 +124,16 @@ class _Problem:
         self.anchor = None
         self.gauge = gauge_functions(fm.system)
 
-    def set_start(self, y: np.ndarray, mode: str) -> None:
-        """The start's mode and reference state (the anchor through it, orthogonal to the flow)."""
+    def set_start(self, y: np.ndarray, mode: str, a: float) -> None:
+        """The start's mode and reference state ``y`` of an orbit of amplitude ``a`` (the anchor
+        through ``y / a``, orthogonal to the flow)."""
         self.mode = mode
         solver = AutonomousSolver(self.fm, "anchor", 1e-12, 1)
         self.d, self.pos = solver.unknowns(mode)
         y = self.fm.mode(mode).solve_algebraic(0.0, np.array(y, dtype=float))
         self.y_base = y.copy()
         f = self.fm.field(mode, y)[self.d]
-        self.anchor = (y[self.d].copy(), f / max(float(np.linalg.norm(f)), 1e-300))
+        self.anchor = (y[self.d] / a, f / max(float(np.linalg.norm(f)), 1e-300))
 
     def pack(self, y, T, xi, t_star, a) -> np.ndarray:
         return np.concatenate([y[self.d] / a, [T / self.T0, xi / self.w0, t_star / self.T0, math.log(a)]])
@@ -178,7 +190,7 @@ class _Problem:
         F = np.concatenate(
             [
                 (ev.end[self.d] - y[self.d]) / a,
-                [self.anchor[1] @ (z - self.anchor[0] / a)],
+                [self.anchor[1] @ (z - self.anchor[0])],
                 [e2.end[self.iq] / a - 1.0],
                 [rate / (a * self.w0)],
             ]
@@ -189,9 +201,9 @@ class _Problem:
         A[:n, n] = ev.field[self.d] * self.T0 / a
         A[:n, n + 1] = J[pos, -1] * self.w0 / a
         A[:n, n + 3] = (Jyy - np.eye(n)) @ z - F[:n]
-        # the anchor: f_ref . (z - y_ref / a)
+        # the anchor: f_ref . (z - y_ref / a_ref), z = y / a
         A[n, :n] = self.anchor[1]
-        A[n, n + 3] = self.anchor[1] @ self.anchor[0] / a
+        A[n, n + 3] = 0.0
         # the amplitude: q(t*) / a - 1
         A[n + 1, :n] = J2[qp, pos]
         A[n + 1, n + 1] = J2[qp, -1] * self.w0 / a
@@ -237,13 +249,21 @@ class _Problem:
         keep = [int(piv[i]) for i in range(diag.size) if diag[i] > GAUGE_PICK_TOL]
         return G[keep], vals[keep]
 
+    def tangent(self, u, J: np.ndarray, previous: np.ndarray) -> np.ndarray:
+        """The unit tangent of the curve at ``u`` (sense of ``previous``), with the gauge rows of a
+        family: without them its free direction (e.g. an offset) enters the tangent and the step in
+        ``ln a`` shrinks to the tangent's small share (issue 31: the crawl on a beam with a stuck
+        contact)."""
+        Gr, _ = self.gauge_rows(u, np.vstack([J, previous]))
+        return tangent(np.vstack([J, Gr]), previous)
+
     def correct(self, u, row: np.ndarray, target: float, tol: float):
         """Newton on ``[F(u); row . u - target]`` (with the gauges of a family); ``(u, J, info,
         iterations, residual)`` or None."""
         for it in range(CORRECTOR_ITER):
             try:
                 F, J, info = self.evaluate(u)
-            except (RuntimeError, ValueError, GrazingSwitchError, ZeroDivisionError, np.linalg.LinAlgError):
+            except _FAILED:  # a failed evaluation (also a Newton step sending ln a out of range)
                 return None
             if not np.all(np.isfinite(F)):
                 return None
@@ -410,7 +430,7 @@ def backbone(
     for _ in range(int(math.log2(1.0 / MIN_START))):
         y = np.zeros(len(system.variable_names))
         y[[system.variable_names.index(n) for n in names]] = -a0 * shape.real
-        prob.set_start(y, start_mode)
+        prob.set_start(y, start_mode, a0)
         fm.set_parameter(-2.0 * lam.real)
         try:
             tr = fm.run(prob.y_base, start_mode, T0)
@@ -537,7 +557,7 @@ def _restart(prob: _Problem, u, orbit: PeriodicOrbit):
             best, k_best = score, k
     ts = float(t[k_best])
     y = tr.y[k_best].copy()
-    prob.set_start(y, str(tr.mode[k_best]))
+    prob.set_start(y, str(tr.mode[k_best]), a)
     t_new = (t_star - ts) % T
     return prob.pack(prob.y_base, T, xi, t_new, a)
 
@@ -579,7 +599,7 @@ def _steps(bb, prob: _Problem, u0, wanted, lo, hi, st: ContinuationOptions, tol,
         bb.message = "the corrector failed on the linear mode at the start amplitude"
         return
     u, J, info, _, res = got
-    t = tangent(J, e_last)
+    t = prob.tangent(u, J, e_last)
     pt = _point(prob, u, info, res, st.samples_per_period)
     log_lo, log_hi = math.log(lo), math.log(hi)
     chain.append(pt)
@@ -615,7 +635,7 @@ def _steps(bb, prob: _Problem, u0, wanted, lo, hi, st: ContinuationOptions, tol,
             else:
                 missed.append(math.exp(x))
             targets.remove(x)
-        tn = tangent(Jn, t)
+        tn = prob.tangent(un, Jn, t)
         pt = _point(prob, un, info, res, st.samples_per_period)
         chain.append(pt)
         if wanted is None and log_lo < un[-1] < log_hi:
@@ -654,7 +674,7 @@ def _carry(prob: _Problem, u, t_old):
         _, J, _ = prob.evaluate(u)
     except (RuntimeError, ValueError, GrazingSwitchError, ZeroDivisionError):
         return prev / np.linalg.norm(prev)
-    return tangent(J, prev)
+    return prob.tangent(u, J, prev)
 
 
 def _events(bb: Backbone, prob: _Problem, chain, st: ContinuationOptions, tol) -> None:
@@ -687,15 +707,16 @@ def _events(bb: Backbone, prob: _Problem, chain, st: ContinuationOptions, tol) -
 def _locate(prob: _Problem, a: BackbonePoint, b: BackbonePoint, test, kind, desc, st, tol) -> BackboneEvent:
     lo, hi = math.log(a.amplitude), math.log(b.amplitude)
     o = a.orbit
-    start = (o.x0, o.mode0, o.period, a.xi, a.t_max)
+    start = (o.x0, o.mode0, o.period, a.xi, a.t_max, a.amplitude)
     w_hi, d_hi = b.omega, b.damping_ratio
     for _ in range(LOCATE_ITER):
         if hi - lo <= st.locate_tol:
             break
         mid = 0.5 * (lo + hi)
-        y0, mode0, T, xi, t_star = start
-        prob.set_start(y0, mode0)
-        u0 = prob.pack(prob.y_base, T, xi, t_star, math.exp(mid))
+        y0, mode0, T, xi, t_star, a_start = start
+        prob.set_start(y0, mode0, a_start)
+        u0 = prob.pack(prob.y_base, T, xi, t_star, a_start)  # the start's scaled state
+        u0[-1] = mid
         got = prob.correct(u0, _last(u0.size), mid, tol)
         if got is None:
             break
@@ -705,7 +726,7 @@ def _locate(prob: _Problem, a: BackbonePoint, b: BackbonePoint, test, kind, desc
         if test(modes):
             hi, w_hi, d_hi = mid, 2 * math.pi / T, xi * T / (4 * math.pi)
         else:
-            lo, start = mid, (y, prob.mode, T, xi, t_star)
+            lo, start = mid, (y, prob.mode, T, xi, t_star, math.exp(mid))
     status = "located" if hi - lo <= st.locate_tol else "bracketed"
     a_lo, a_hi = math.exp(lo), math.exp(hi)
     return BackboneEvent(kind, 0.5 * (a_lo + a_hi), (a_lo, a_hi), status, w_hi, d_hi, desc)
