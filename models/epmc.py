@@ -25,6 +25,7 @@ from dataclasses import fields, replace
 from pathlib import Path
 
 from hybrid import HybridSystem, ModelError, Variable
+from hybrid.model.loader import reading_model_file
 
 from .network_read import GROUND, Element, Network, read_network
 from .network_system import network_system
@@ -190,7 +191,8 @@ def _network(source) -> Network:
             data = tomllib.loads(path.read_text())
         except (OSError, tomllib.TOMLDecodeError) as exc:
             raise ModelError(f"{path}: cannot read a network file: {exc}") from None
-        return read_network(data)
+        with reading_model_file(path):  # the files it names (a structure's matrices) beside it
+            return read_network(data)
     if isinstance(source, Mapping):
         return read_network(source)
     raise ModelError(

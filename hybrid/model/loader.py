@@ -76,6 +76,7 @@ __all__ = [
     "draw_model_file",
     "MAX_FILE_BYTES",
     "model_file",
+    "reading_model_file",
     "shown_key",
     "shown_value",
 ]
@@ -125,7 +126,10 @@ def model_file() -> Path | None:
 
 
 @contextmanager
-def _reading(path: Path) -> Iterator[None]:
+def reading_model_file(path: str | Path) -> Iterator[None]:
+    """While in this context, :func:`model_file` is ``path`` (resolved): the files a model file
+    names beside it (e.g. a structure's matrices) resolve against its folder."""
+    path = Path(path)
     token = _MODEL_FILE.set(path.resolve())
     try:
         yield
@@ -154,7 +158,7 @@ def load_system(path: str | Path) -> HybridSystem:
     path = Path(path)
     data = read_model_file(path)
     try:
-        with _reading(path):
+        with reading_model_file(path):
             return system_from_dict(data)
     except ModelError as exc:
         raise ModelError(f"{path.name}: {exc}") from None
@@ -169,7 +173,7 @@ def _with_format(path: str | Path, method: str, *args):
         fmt = _format(data)
         if fmt is None or not hasattr(fmt, method):
             return False, None
-        with _reading(path):
+        with reading_model_file(path):
             return True, getattr(fmt, method)(data, *args)
     except ModelError as exc:
         raise ModelError(f"{path.name}: {exc}") from None

@@ -19,6 +19,7 @@ import hybrid_models
 from hybrid import Exact, SolverOptions
 from hybrid.model.linear import reduced_jacobian
 from hybrid_models.craig_bampton import craig_bampton
+from hybrid_models.epmc import epmc_system
 from hybrid_models.structures import Structure
 
 MODELS = Path(hybrid_models.__file__).parent
@@ -87,3 +88,15 @@ def test_reduced_beam_backbone_is_xi_a_and_the_reduced_eigh_frequency(mode):
     # the energy the term puts in (xi v'Mv) is what the Rayleigh damping (v'Cv) dissipates
     assert p.dissipated > 0
     assert p.energy_input == pytest.approx(p.dissipated, rel=1e-9)
+
+
+def test_epmc_system_of_a_file_finds_the_matrices_it_names_beside_it(tmp_path, monkeypatch):
+    # issue 31: a network file naming `data/beam20.npz` was read against the working directory
+    monkeypatch.chdir(tmp_path)
+    system = epmc_system(Path(hybrid_models.__file__).parent / "beam_tip_cb.toml")
+    assert "xi" in {p.name for p in system.parameters}
+    with pytest.raises(hybrid.ModelError, match="beam20.npz"):
+        (tmp_path / "m.toml").write_text(
+            (Path(hybrid_models.__file__).parent / "beam_tip_cb.toml").read_text()
+        )
+        epmc_system(tmp_path / "m.toml")
