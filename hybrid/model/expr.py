@@ -660,7 +660,7 @@ def diff(e: Expr, name: str) -> Expr:
     # the size of that part, not of the whole DAG (a sum of N terms is differentiated in each of
     # its N variables in O(N) in all, not O(N^2)).
     d: dict[Expr, Expr] = {}
-    for node in _postorder_depending(e, name):
+    for node in postorder_depending(e, {name}):
         op = node.op
         if op == "sym":
             out = ONE
@@ -692,8 +692,9 @@ def diff(e: Expr, name: str) -> Expr:
     return d[e]
 
 
-def _postorder_depending(root: Expr, name: str) -> list[Expr]:
-    """The distinct nodes under ``root`` whose value depends on symbol ``name``, children first."""
+def postorder_depending(root: Expr, wanted) -> list[Expr]:
+    """The distinct nodes under ``root`` whose value depends on a symbol of ``wanted`` (a set of
+    names), children first."""
     seen: set[Expr] = set()
     out: list[Expr] = []
     stack: list[tuple[Expr, bool]] = [(root, False)]
@@ -707,6 +708,6 @@ def _postorder_depending(root: Expr, name: str) -> list[Expr]:
         seen.add(node)
         stack.append((node, True))
         for c in reversed(children(node)):
-            if c not in seen and name in c.free:
+            if c not in seen and c.free & wanted:
                 stack.append((c, False))
     return out

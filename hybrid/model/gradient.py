@@ -9,7 +9,21 @@ from the root down once (issue 32: the set-up of 1000 contacts).
 
 from __future__ import annotations
 
-from .expr import ONE, Expr, _dfunc, _is_num, add, call, children, div, mul, neg, num, power, sub
+from .expr import (
+    ONE,
+    Expr,
+    _dfunc,
+    _is_num,
+    add,
+    call,
+    div,
+    mul,
+    neg,
+    num,
+    postorder_depending,
+    power,
+    sub,
+)
 
 __all__ = ["gradient"]
 
@@ -46,7 +60,7 @@ def gradient(e: Expr, names) -> dict[str, Expr]:
         adj[c] = v if old is None else add(old, v)
 
     out: dict[str, Expr] = {}
-    for node in reversed(_postorder_wanted(e, wanted)):
+    for node in reversed(postorder_depending(e, wanted)):
         a = adj.get(node)
         if a is None:
             continue
@@ -80,24 +94,4 @@ def gradient(e: Expr, names) -> dict[str, Expr]:
             acc(x, mul(a, _dfunc(fname, x)))
         else:  # pragma: no cover
             raise AssertionError(op)
-    return out
-
-
-def _postorder_wanted(root: Expr, wanted) -> list[Expr]:
-    """The distinct nodes under ``root`` that depend on a symbol of ``wanted``, children first."""
-    seen: set[Expr] = set()
-    out: list[Expr] = []
-    stack: list[tuple[Expr, bool]] = [(root, False)]
-    while stack:
-        node, expanded = stack.pop()
-        if expanded:
-            out.append(node)
-            continue
-        if node in seen:
-            continue
-        seen.add(node)
-        stack.append((node, True))
-        for c in reversed(children(node)):
-            if c not in seen and c.free & wanted:
-                stack.append((c, False))
     return out
