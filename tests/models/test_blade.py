@@ -120,7 +120,8 @@ def test_a_contact_between_two_structures_moves_as_between_a_structure_and_masse
     assert a.n_transitions >= 4 and [e.target for e in b.events] == [e.target for e in a.events]
     fa, fb = a.final_values, b.final_values
     for m, st in (("damper_x", "damper_x"), ("vd_x", "v_damper_x"), ("damper_y", "damper_y")):
-        assert fb[st] == pytest.approx(fa[m], abs=1e-9 * abs(fa["blade_xpr"]))
+        # (the damper walks to ~0.33 m while the blade moves ~1e-4 m: relative to each, rounding differs)
+        assert fb[st] == pytest.approx(fa[m], rel=1e-9, abs=1e-9 * abs(fa["blade_xpr"]))
     for k in ("blade_x10", "blade_ypr", "T_platform", "N_neighbour", "E"):
         assert fb[k] == pytest.approx(fa[k], rel=1e-8, abs=1e-9 * abs(fa[k]) + 1e-14)
 
