@@ -6,6 +6,7 @@ subpackages of ``hybrid/``) and tests/test_models_public_api.py (from ``models/`
 from __future__ import annotations
 
 import ast
+from pathlib import Path
 
 #: The public API of :func:`collections.namedtuple` (underscored so as not to clash with fields).
 NAMEDTUPLE_API = frozenset({"_replace", "_asdict", "_fields", "_make", "_field_defaults"})
@@ -83,3 +84,22 @@ def private_attribute_uses(tree: ast.Module) -> list[tuple[int, ast.expr, str]]:
             continue
         out.append((node.lineno, obj, name))
     return sorted(out, key=lambda use: use[0])
+
+
+def module_name(path: Path, repo: Path) -> str:
+    """The dotted module name of the file ``path`` under the repository root ``repo``."""
+    parts = list(path.relative_to(repo).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def resolve_import(module: str, node: ast.ImportFrom, is_package: bool) -> str:
+    """The absolute module an ``ImportFrom`` in ``module`` names (relative imports resolved)."""
+    if node.level == 0:
+        return node.module or ""
+    base = module.split(".")
+    if not is_package:
+        base = base[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))

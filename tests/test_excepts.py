@@ -16,6 +16,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from private_names import module_name, resolve_import
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGES = ("hybrid", "models")
@@ -58,20 +59,10 @@ ALLOWED = (
 
 
 def _module_name(path: Path) -> str:
-    parts = list(path.relative_to(REPO).with_suffix("").parts)
-    if parts[-1] == "__init__":
-        parts.pop()
-    return ".".join(parts)
+    return module_name(path, REPO)
 
 
-def _resolve(module: str, node: ast.ImportFrom, is_package: bool) -> str:
-    if node.level == 0:
-        return node.module or ""
-    base = module.split(".")
-    if not is_package:
-        base = base[:-1]
-    base = base[: len(base) - (node.level - 1)]
-    return ".".join(base + ([node.module] if node.module else []))
+_resolve = resolve_import
 
 
 class _Module:

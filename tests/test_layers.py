@@ -27,7 +27,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from private_names import defined_private_names, private_attribute_uses
+from private_names import defined_private_names, module_name, private_attribute_uses, resolve_import
 
 ROOT = Path(__file__).resolve().parents[1] / "hybrid"
 
@@ -40,21 +40,10 @@ LAZY = (("hybrid.cli.", "hybrid.plot."),)
 
 
 def _module_name(path: Path) -> str:
-    rel = path.relative_to(ROOT.parent).with_suffix("")
-    parts = list(rel.parts)
-    if parts[-1] == "__init__":
-        parts.pop()
-    return ".".join(parts)
+    return module_name(path, ROOT.parent)
 
 
-def _resolve(module: str, node: ast.ImportFrom, is_package: bool) -> str:
-    if node.level == 0:
-        return node.module or ""
-    base = module.split(".")
-    if not is_package:
-        base = base[:-1]
-    base = base[: len(base) - (node.level - 1)]
-    return ".".join(base + ([node.module] if node.module else []))
+_resolve = resolve_import
 
 
 #: module -> the lines of its imports for annotations only (under ``if TYPE_CHECKING:``).
